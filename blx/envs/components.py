@@ -1,0 +1,408 @@
+"""Components: the bodies a scene is made of.
+
+A component is a factory ``(**params) -> ComponentSpec``. The spec holds an MJCF fragment (bodies with
+unprefixed names, and the motors that drive their joints), the name of its root body and how to read
+the root's velocity, the geoms that may take part in contacts, its default observers and its
+termination rule. The composer prefixes every name with the component's instance name
+(``agent1/torso``) so several copies coexist.
+
+Dimensions follow the standard MuJoCo models (Gymnasium's ``ant.xml``, ``humanoid.xml``,
+``half_cheetah.xml``); the MJCF itself is generated here. ``pro_ant`` generalises the ant to ``N`` legs
+spaced evenly around the torso, as Braxlines' procedural ant does.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import inspect
+import math
+from typing import Any, Callable, Mapping
+
+import numpy as np
+
+from blx.envs.mjcf import Element
+
+__all__ = [
+    "ComponentSpec",
+    "Termination",
+    "register_component",
+    "list_components",
+    "make_component",
+    "MIN_LEGS",
+    "MAX_LEGS",
+]
+
+MIN_LEGS = 2
+MAX_LEGS = 16
+
+
+@dataclasses.dataclass(frozen=True)
+class Termination:
+  """Episode end from the root body's pose: height outside ``[min_z, max_z]`` or flipped upside down.
+
+  ``z_offset`` (``term_params`` in a desc) shifts both bounds, e.g. for an ant standing on a ball.
+  """
+
+  min_z: float = -math.inf
+  max_z: float = math.inf
+  check_flip: bool = False
+
+
+@dataclasses.dataclass(frozen=True)
+class ComponentSpec:
+  """What a component contributes to a scene (names unprefixed).
+
+  Attributes:
+    bodies: top-level MJCF ``body`` elements.
+    motors: ``(joint_name, gear)`` for each actuated joint, in action order; actions lie in [-1, 1].
+    root: name of the root body.
+    root_linear: ``{axis: joint}`` giving the root's linear velocity along world axis 0/1/2; a free
+      joint is written ``{-1: joint}`` and gives all three (and the angular velocity).
+    root_angular: ``{axis: hinge_joint}`` for planar roots.
+    colliders: geoms that take part in contacts (explicit pairs, see the composer).
+    root_colliders: the subset of ``colliders`` on the root body (edge ``collide_type='root'``).
+    observers: default observers (see ``blx.envs.observers``).
+    termination: the rule for ending an episode, or None.
+    planar_axes: world axes the root can translate along (``(0, 1)`` for free bodies).
+    friction: sliding friction of this component's colliders.
+  """
+
+  bodies: tuple[Element, ...]
+  motors: tuple[tuple[str, float], ...]
+  root: str
+  root_linear: Mapping[int, str]
+  root_angular: Mapping[int, str] = dataclasses.field(default_factory=dict)
+  colliders: tuple[str, ...] = ()
+  root_colliders: tuple[str, ...] = ()
+  observers: tuple[Any, ...] = ("root_z_joints",)
+  termination: Termination | None = None
+  planar_axes: tuple[int, ...] = (0, 1)
+  friction: float = 1.0
+
+  @property
+  def root_joints(self) -> tuple[str, ...]:
+    return tuple(self.root_linear.values()) + tuple(self.root_angular.values())
+
+
+# --------------------------------------------------------------------------------------------------
+# Ant and procedural ant.
+
+_ANT_JOINT = dict(armature=1, damping=1)
+_ANT_GEOM = dict(density=5.0)
+
+
+def _legged_ant(num_legs: int, angle_offset: float) -> ComponentSpec:
+  """An ant-like body: torso sphere (r 0.25) and ``num_legs`` legs at ``angle_offset + 2*pi*i/N``.
+
+  Each leg is the standard ant leg: a fixed 0.2*sqrt(2) hip segment, a thigh of the same length on a
+  vertical hip hinge (+-30 deg), and a shin twice as long on a knee hinge (30..70 deg), all capsules of
+  radius 0.08; motors of gear 150.
+  """
+  torso = Element("body", {"name": "torso", "pos": (0, 0, 0.75)})
+  torso.add("freejoint", name="root")
+  torso.add("geom", name="torso_geom", type="sphere", size=0.25, **_ANT_GEOM)
+  motors, feet = [], []
+  for i in range(1, num_legs + 1):
+    theta = angle_offset + 2 * math.pi * (i - 1) / num_legs
+    d = np.array([math.cos(theta), math.sin(theta), 0.0]) * 0.2 * math.sqrt(2)
+    leg = torso.add("body", name=f"leg_{i}", pos=(0, 0, 0))
+    leg.add("geom", name=f"hip_{i}_geom", type="capsule", fromto=(0, 0, 0, *d), size=0.08,
+            **_ANT_GEOM)
+    thigh = leg.add("body", name=f"thigh_{i}", pos=tuple(d))
+    thigh.add("joint", name=f"hip_{i}", type="hinge", axis=(0, 0, 1),
+              range=(-math.radians(30), math.radians(30)), **_ANT_JOINT)
+    thigh.add("geom", name=f"thigh_{i}_geom", type="capsule", fromto=(0, 0, 0, *d), size=0.08,
+              **_ANT_GEOM)
+    shin = thigh.add("body", name=f"shin_{i}", pos=tuple(d))
+    knee_axis = (-math.sin(theta), math.cos(theta), 0.0)
+    shin.add("joint", name=f"knee_{i}", type="hinge", axis=knee_axis,
+             range=(math.radians(30), math.radians(70)), **_ANT_JOINT)
+    shin.add("geom", name=f"foot_{i}_geom", type="capsule", fromto=(0, 0, 0, *(2 * d)), size=0.08,
+             **_ANT_GEOM)
+    motors += [(f"hip_{i}", 150.0), (f"knee_{i}", 150.0)]
+    feet.append(f"foot_{i}_geom")
+  return ComponentSpec(
+      bodies=(torso,),
+      motors=tuple(motors),
+      root="torso",
+      root_linear={-1: "root"},
+      colliders=("torso_geom", *feet),
+      root_colliders=("torso_geom",),
+      observers=("root_z_joints",),
+      termination=Termination(min_z=0.2, max_z=1.0, check_flip=True),
+  )
+
+
+def ant() -> ComponentSpec:
+  """The standard MuJoCo ant: four legs at 45, 135, 225 and 315 degrees (8 actuators)."""
+  return _legged_ant(4, math.pi / 4)
+
+
+def pro_ant(num_legs: int = 4) -> ComponentSpec:
+  """Procedural ant with ``num_legs`` legs (2..16) spaced evenly, the first along +x."""
+  if not MIN_LEGS <= num_legs <= MAX_LEGS:
+    raise ValueError(
+        f"pro_ant: num_legs={num_legs} is out of range; valid values are {MIN_LEGS}..{MAX_LEGS}")
+  return _legged_ant(num_legs, 0.0)
+
+
+# --------------------------------------------------------------------------------------------------
+# Humanoid (Gymnasium humanoid.xml dimensions; actions in [-1, 1] scaled by 0.4 into the gears).
+
+def _capsule(parent: Element, name: str, fromto, size) -> None:
+  parent.add("geom", name=name, type="capsule", fromto=fromto, size=size)
+
+
+def humanoid() -> ComponentSpec:
+  """The standard MuJoCo humanoid: 17 hinge joints, torso at 1.4 m."""
+  deg = math.radians
+
+  def hinge(body, name, axis, lo, hi, *, armature, damping=5.0, stiffness=10.0, pos=(0, 0, 0)):
+    body.add("joint", name=name, type="hinge", axis=axis, pos=pos, range=(deg(lo), deg(hi)),
+             armature=armature, damping=damping, stiffness=stiffness)
+
+  torso = Element("body", {"name": "torso", "pos": (0, 0, 1.4)})
+  torso.add("freejoint", name="root")
+  _capsule(torso, "torso1", (0, -0.07, 0, 0, 0.07, 0), 0.07)
+  torso.add("geom", name="head", type="sphere", pos=(0, 0, 0.19), size=0.09)
+  _capsule(torso, "uwaist", (-0.01, -0.06, -0.12, -0.01, 0.06, -0.12), 0.06)
+  lwaist = torso.add("body", name="lwaist", pos=(-0.01, 0, -0.26), quat=(1, 0, -0.002, 0))
+  _capsule(lwaist, "lwaist", (0, -0.06, 0, 0, 0.06, 0), 0.06)
+  hinge(lwaist, "abdomen_z", (0, 0, 1), -45, 45, armature=0.02, stiffness=20, pos=(0, 0, 0.065))
+  hinge(lwaist, "abdomen_y", (0, 1, 0), -75, 30, armature=0.02, pos=(0, 0, 0.065))
+  pelvis = lwaist.add("body", name="pelvis", pos=(0, 0, -0.165), quat=(1, 0, -0.002, 0))
+  hinge(pelvis, "abdomen_x", (1, 0, 0), -35, 35, armature=0.02, pos=(0, 0, 0.1))
+  _capsule(pelvis, "butt", (-0.02, -0.07, 0, -0.02, 0.07, 0), 0.09)
+  for side, sy in (("right", -1.0), ("left", 1.0)):
+    thigh = pelvis.add("body", name=f"{side}_thigh", pos=(0, 0.1 * sy, -0.04))
+    hinge(thigh, f"{side}_hip_x", (-sy, 0, 0), -25, 5, armature=0.01)
+    hinge(thigh, f"{side}_hip_z", (0, 0, -sy), -60, 35, armature=0.01)
+    hinge(thigh, f"{side}_hip_y", (0, 1, 0), -110, 20, armature=0.008, stiffness=20)
+    _capsule(thigh, f"{side}_thigh1", (0, 0, 0, 0, -0.01 * sy, -0.34), 0.06)
+    shin = thigh.add("body", name=f"{side}_shin", pos=(0, -0.01 * sy, -0.403))
+    hinge(shin, f"{side}_knee", (0, -1, 0), -160, -2, armature=0.006, damping=1.0, stiffness=1.0,
+          pos=(0, 0, 0.02))
+    _capsule(shin, f"{side}_shin1", (0, 0, 0, 0, 0, -0.3), 0.049)
+    foot = shin.add("body", name=f"{side}_foot", pos=(0, 0, -0.45))
+    foot.add("geom", name=f"{side}_foot", type="sphere", pos=(0, 0, 0.1), size=0.075)
+  for side, sy in (("right", -1.0), ("left", 1.0)):
+    upper = torso.add("body", name=f"{side}_upper_arm", pos=(0, 0.17 * sy, 0.06))
+    lo, hi = (-85, 60) if side == "right" else (-60, 85)
+    hinge(upper, f"{side}_shoulder1", (2, -sy, 1), lo, hi, armature=0.0068, damping=1.0,
+          stiffness=1.0)
+    hinge(upper, f"{side}_shoulder2", (0, sy, 1), lo, hi, armature=0.0051, damping=1.0,
+          stiffness=1.0)
+    upper.add("geom", name=f"{side}_uarm1", type="capsule", fromto=(0, 0, 0, 0.16, 0.16 * sy, -0.16),
+              size=(0.04, 0.16))
+    lower = upper.add("body", name=f"{side}_lower_arm", pos=(0.18, 0.18 * sy, -0.18))
+    hinge(lower, f"{side}_elbow", (0, -1, sy), -90, 50, armature=0.0028, damping=1.0,
+          stiffness=0.0)
+    _capsule(lower, f"{side}_larm", (0.01, 0.01 * sy, 0.01, 0.17, 0.17 * sy, 0.17), 0.031)
+    lower.add("geom", name=f"{side}_hand", type="sphere", pos=(0.18, 0.18 * sy, 0.18), size=0.04)
+
+  gears = dict(abdomen_y=100, abdomen_z=100, abdomen_x=100, right_hip_x=100, right_hip_z=100,
+               right_hip_y=300, right_knee=200, left_hip_x=100, left_hip_z=100, left_hip_y=300,
+               left_knee=200, right_shoulder1=25, right_shoulder2=25, right_elbow=25,
+               left_shoulder1=25, left_shoulder2=25, left_elbow=25)
+  return ComponentSpec(
+      bodies=(torso,),
+      motors=tuple((j, 0.4 * g) for j, g in gears.items()),
+      root="torso",
+      root_linear={-1: "root"},
+      colliders=("torso1", "right_shin1", "left_shin1", "right_foot", "left_foot"),
+      root_colliders=("torso1",),
+      observers=("root_z_joints",),
+      termination=Termination(min_z=1.0, max_z=2.0),
+  )
+
+
+# --------------------------------------------------------------------------------------------------
+# Half-cheetah (Gymnasium half_cheetah.xml dimensions; planar, total mass 14 kg).
+
+_CHEETAH_GEOMS = (  # name, body-relative pos, axis-angle about y, half-length; all radius 0.046
+    ("bthigh", (0.1, 0, -0.13), -3.8, 0.145),
+    ("bshin", (-0.14, 0, -0.07), -2.03, 0.15),
+    ("bfoot", (0.03, 0, -0.097), -0.27, 0.094),
+    ("fthigh", (-0.07, 0, -0.12), 0.52, 0.133),
+    ("fshin", (0.065, 0, -0.09), -0.6, 0.106),
+    ("ffoot", (0.045, 0, -0.07), -0.6, 0.07),
+)
+_CHEETAH_JOINTS = dict(  # body pos, range, stiffness, damping, gear
+    bthigh=((-0.5, 0, 0), (-0.52, 1.05), 240, 6.0, 120),
+    bshin=((0.16, 0, -0.25), (-0.785, 0.785), 180, 4.5, 90),
+    bfoot=((-0.28, 0, -0.14), (-0.4, 0.785), 120, 3.0, 60),
+    fthigh=((0.5, 0, 0), (-1.0, 0.7), 180, 4.5, 120),
+    fshin=((-0.14, 0, -0.24), (-1.2, 0.87), 120, 3.0, 60),
+    ffoot=((0.13, 0, -0.18), (-0.5, 0.5), 60, 1.5, 30),
+)
+
+
+def halfcheetah() -> ComponentSpec:
+  """The standard MuJoCo half-cheetah: planar root (x, z slides and a y hinge) and 6 joints."""
+  radius = 0.046
+  half_lengths = [0.5, 0.15] + [g[3] for g in _CHEETAH_GEOMS]
+  volume = sum(math.pi * radius**2 * 2 * h + 4 / 3 * math.pi * radius**3 for h in half_lengths)
+  density = 14.0 / volume  # Gymnasium sets the total mass to 14 kg
+  geom_kw = dict(density=density, friction=(0.4, 0.1, 0.1))
+  torso = Element("body", {"name": "torso", "pos": (0, 0, 0.7)})
+  for name, axis, kind in (("rootx", (1, 0, 0), "slide"), ("rootz", (0, 0, 1), "slide"),
+                           ("rooty", (0, 1, 0), "hinge")):
+    torso.add("joint", name=name, type=kind, axis=axis, armature=0, damping=0, stiffness=0,
+              limited=False)
+  torso.add("geom", name="torso", type="capsule", fromto=(-0.5, 0, 0, 0.5, 0, 0), size=radius,
+            **geom_kw)
+  torso.add("geom", name="head", type="capsule", pos=(0.6, 0, 0.1), axisangle=(0, 1, 0, 0.87),
+            size=(radius, 0.15), **geom_kw)
+  parents = {"bthigh": torso, "fthigh": torso}
+  chain = {"bthigh": "bshin", "bshin": "bfoot", "fthigh": "fshin", "fshin": "ffoot"}
+  for name, gpos, angle, half in _CHEETAH_GEOMS:
+    pos, rng, stiffness, damping, _ = _CHEETAH_JOINTS[name]
+    body = parents[name].add("body", name=name, pos=pos)
+    body.add("joint", name=name, type="hinge", axis=(0, 1, 0), range=rng, stiffness=stiffness,
+             damping=damping, armature=0.1, solreflimit=(0.02, 1), solimplimit=(0, 0.8, 0.03))
+    body.add("geom", name=name, type="capsule", pos=gpos, axisangle=(0, 1, 0, angle),
+             size=(radius, half), **geom_kw)
+    if name in chain:
+      parents[chain[name]] = body
+  return ComponentSpec(
+      bodies=(torso,),
+      motors=tuple((n, float(j[4])) for n, j in _CHEETAH_JOINTS.items()),
+      root="torso",
+      root_linear={0: "rootx", 2: "rootz"},
+      root_angular={1: "rooty"},
+      colliders=("torso", "head", "bshin", "bfoot", "fshin", "ffoot"),
+      root_colliders=("torso", "head"),
+      observers=("root_z_joints",),
+      termination=None,
+      planar_axes=(0,),
+      friction=0.4,
+  )
+
+
+# --------------------------------------------------------------------------------------------------
+# Objects and the point mass.
+
+def singleton(size: float | tuple = 0.25, collider_type: str = "sphere",
+              no_obs: bool = False) -> ComponentSpec:
+  """A free rigid object: a sphere of radius ``size`` or a capsule ``size=(radius, length)``.
+
+  Mass is radius**3 (Braxlines' convention); it rests on the ground at its default position.
+  """
+  if collider_type not in ("sphere", "capsule"):
+    raise ValueError(
+        f"singleton: collider_type={collider_type!r} is not valid; valid values are "
+        "'sphere', 'capsule'")
+  if collider_type == "sphere":
+    if not isinstance(size, (int, float)) or size <= 0:
+      raise ValueError(f"singleton: sphere size must be a positive number, got {size!r}")
+    radius, geom = float(size), dict(type="sphere", size=float(size))
+  else:
+    if (not isinstance(size, (tuple, list)) or len(size) != 2
+        or not all(isinstance(s, (int, float)) and s > 0 for s in size)):
+      raise ValueError(f"singleton: capsule size must be (radius, length), got {size!r}")
+    radius = float(size[0])
+    geom = dict(type="capsule", size=(radius, float(size[1]) / 2), quat=(0.7071068, 0, 0.7071068, 0))
+  body = Element("body", {"name": "object", "pos": (0, 0, radius)})
+  body.add("freejoint", name="root")
+  body.add("geom", name="object_geom", mass=radius**3, **geom)
+  return ComponentSpec(
+      bodies=(body,),
+      motors=(),
+      root="object",
+      root_linear={-1: "root"},
+      colliders=("object_geom",),
+      root_colliders=("object_geom",),
+      observers=() if no_obs else ("qp",),
+  )
+
+
+def point(gear: float = 4.0, damping: float = 2.0) -> ComponentSpec:
+  """A point mass (1 kg) moving in the plane on two slide joints, driven by two motors.
+
+  Viscous damping bounds its speed at ``gear / damping`` m/s. It has no colliders: it moves freely
+  and costs almost nothing to simulate, the cheap default for CPU runs.
+  """
+  body = Element("body", {"name": "root", "pos": (0, 0, 0.1)})
+  for name, axis in (("x", (1, 0, 0)), ("y", (0, 1, 0))):
+    body.add("joint", name=name, type="slide", axis=axis, damping=damping, limited=False)
+  body.add("geom", name="point_geom", type="sphere", size=0.1, mass=1.0)
+  return ComponentSpec(
+      bodies=(body,),
+      motors=(("x", float(gear)), ("y", float(gear))),
+      root="root",
+      root_linear={0: "x", 1: "y"},
+      observers=(dict(observer_type="root", sdcomp="pos", indices=(0, 1)),
+                 dict(observer_type="root", sdcomp="vel", indices=(0, 1))),
+  )
+
+
+# --------------------------------------------------------------------------------------------------
+# Registry.
+
+_COMPONENTS: dict[str, Callable[..., ComponentSpec]] = {
+    "ant": ant,
+    "pro_ant": pro_ant,
+    "humanoid": humanoid,
+    "halfcheetah": halfcheetah,
+    "singleton": singleton,
+    "point": point,
+}
+GROUND = "ground"
+
+
+def register_component(name: str, factory: Callable[..., ComponentSpec]) -> None:
+  """Registers ``factory(**params) -> ComponentSpec`` under ``name`` (fails if taken)."""
+  if not isinstance(name, str) or not name or name == GROUND:
+    raise ValueError(f"component name must be a non-empty string other than {GROUND!r}, got {name!r}")
+  if name in _COMPONENTS:
+    raise ValueError(f"component {name!r} is already registered")
+  if not callable(factory):
+    raise ValueError(f"component factory for {name!r} must be callable, got {factory!r}")
+  _COMPONENTS[name] = factory
+
+
+def list_components() -> list[str]:
+  """Names of the registered components (``ground`` is added to scenes automatically)."""
+  return sorted(_COMPONENTS) + [GROUND]
+
+
+def _check_params(where: str, fn: Callable, params: Mapping[str, Any]) -> None:
+  """Rejects unknown parameters and values whose type differs from the parameter's default."""
+  signature = inspect.signature(fn)
+  accepts_any = any(p.kind is p.VAR_KEYWORD for p in signature.parameters.values())
+  valid = [n for n, p in signature.parameters.items() if p.kind is not p.VAR_KEYWORD]
+  for key, value in params.items():
+    if key not in signature.parameters:
+      if accepts_any:
+        continue
+      raise ValueError(f"{where}: unknown parameter {key!r}; valid parameters are {valid or 'none'}")
+    default = signature.parameters[key].default
+    if default is inspect.Parameter.empty or default is None:
+      continue
+    expected = (int, float) if isinstance(default, float) else type(default)
+    if isinstance(default, (tuple, list)):
+      expected = (tuple, list)
+    if isinstance(default, float) and isinstance(value, (tuple, list)):
+      continue  # e.g. singleton size=(radius, length); the factory checks the form
+    if isinstance(value, bool) and not isinstance(default, bool):
+      raise ValueError(f"{where}: parameter {key!r} must be {type(default).__name__}, got {value!r}")
+    if not isinstance(value, expected):
+      raise ValueError(
+          f"{where}: parameter {key!r} must be {type(default).__name__}, got {value!r} "
+          f"({type(value).__name__})")
+
+
+def make_component(name: str, params: Mapping[str, Any] | None = None,
+                   where: str = "component") -> ComponentSpec:
+  """Builds the spec of registered component ``name`` with ``params``, checking them first."""
+  if name not in _COMPONENTS:
+    raise ValueError(f"{where}: unknown component {name!r}; valid components are "
+                     f"{sorted(_COMPONENTS)}")
+  factory = _COMPONENTS[name]
+  params = dict(params or {})
+  _check_params(f"{where} ({name})", factory, params)
+  spec = factory(**params)
+  if not isinstance(spec, ComponentSpec):
+    raise ValueError(f"{where}: factory of component {name!r} returned {type(spec).__name__}, "
+                     "not ComponentSpec")
+  return spec

@@ -1,0 +1,112 @@
+"""Registered environments and ``create``."""
+
+from __future__ import annotations
+
+import copy
+import inspect
+from typing import Any, Callable, Mapping
+
+from blx.envs import wrappers
+from blx.envs.composer import apply_edits
+from blx.envs.env import Env
+
+__all__ = ["create", "list_envs", "register_env", "get_desc"]
+
+Desc = Mapping[str, Any]
+_ENVS: dict[str, Desc | Callable[..., Desc]] = {}
+
+
+def register_env(name: str, desc_or_factory: Desc | Callable[..., Desc]) -> None:
+  """Registers a desc, or a factory ``(**params) -> desc``, under ``name`` (fails if taken)."""
+  if not isinstance(name, str) or not name:
+    raise ValueError(f"env name must be a non-empty string, got {name!r}")
+  if name in _ENVS:
+    raise ValueError(f"env {name!r} is already registered")
+  if not (callable(desc_or_factory) or isinstance(desc_or_factory, Mapping)):
+    raise ValueError(f"register_env({name!r}): expected a desc dict or a factory, got "
+                     f"{type(desc_or_factory).__name__}")
+  _ENVS[name] = desc_or_factory
+
+
+def list_envs() -> list[str]:
+  """Names of the registered environments."""
+  return sorted(_ENVS)
+
+
+def env_params(name: str) -> dict[str, Any]:
+  """The parameters a registered env accepts, with their defaults."""
+  entry = _lookup(name)
+  if not callable(entry):
+    return {}
+  return {n: p.default for n, p in inspect.signature(entry).parameters.items()}
+
+
+def _lookup(name: str):
+  if name not in _ENVS:
+    raise ValueError(f"unknown env {name!r}; valid envs are {list_envs()}")
+  return _ENVS[name]
+
+
+def _build(where: str, entry, params: Mapping[str, Any]) -> dict:
+  if callable(entry):
+    valid = inspect.signature(entry).parameters
+    unknown = sorted(set(params) - set(valid))
+    if unknown:
+      raise ValueError(f"{where}: unknown parameter(s) {unknown}; valid parameters are "
+                       f"{list(valid) or 'none'}")
+    desc = entry(**params)
+  else:
+    if params:
+      raise ValueError(f"{where}: takes no parameters, got {sorted(params)}")
+    desc = entry
+  if not isinstance(desc, Mapping):
+    raise ValueError(f"{where}: the desc factory returned {type(desc).__name__}, not a dict")
+  return copy.deepcopy(dict(desc))
+
+
+def _merge(base: dict, over: Mapping) -> dict:
+  out = dict(base)
+  for key, value in over.items():
+    out[key] = _merge(out[key], value) if isinstance(value, Mapping) and isinstance(
+        out.get(key), dict) else copy.deepcopy(value)
+  return out
+
+
+def get_desc(name: str | None = None, *, desc: Desc | Callable[..., Desc] | None = None,
+             edits: Mapping[str, Any] | None = None, **params) -> dict:
+  """The final desc ``create`` would build: registered desc, merged with ``desc``, then edits."""
+  if name is None and desc is None:
+    raise ValueError(f"create: give an env name or a desc; valid envs are {list_envs()}")
+  result: dict = {}
+  if name is not None:
+    result = _build(f"env {name!r}", _lookup(name), params)
+    params = {}
+  if desc is not None:
+    if not (callable(desc) or isinstance(desc, Mapping)):
+      raise ValueError(f"create: desc must be a dict or a factory, got {type(desc).__name__}")
+    result = _merge(result, _build("desc", desc, params))
+  return apply_edits(result, edits)
+
+
+def create(name: str | None = None, *, desc: Desc | Callable[..., Desc] | None = None,
+           edits: Mapping[str, Any] | None = None, episode_length: int | None = 1000,
+           action_repeat: int = 1, **params) -> Any:
+  """Builds an environment.
+
+  Args:
+    name: a registered env (``list_envs()``); its desc is merged under ``desc`` if both are given.
+    desc: a desc dict, or a factory called with ``**params``.
+    edits: ``{"dotted.path": value}`` applied to the final desc.
+    episode_length: steps (of the unrepeated env) before truncation; None for no time limit.
+    action_repeat: times each action is repeated.
+    **params: parameters of a registered env factory (e.g. ``num_legs`` of ``pro_ant_run``).
+
+  Returns:
+    The ``Env``, wrapped by ``action_repeat`` and ``episode`` (no auto-reset: trainers add it).
+  """
+  full = get_desc(name, desc=desc, edits=edits, **params)
+  env = Env(full, name=name)
+  env = wrappers.action_repeat(env, action_repeat)
+  if episode_length is not None:
+    env = wrappers.episode(env, episode_length)
+  return env

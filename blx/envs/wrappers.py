@@ -1,0 +1,122 @@
+"""Wrappers: functions of an ``Env`` returning an ``Env``-like object with new ``reset``/``step``.
+
+Every other attribute (``obs_layout``, ``obs_indices``, ``mj_model``, ...) is read through to the
+wrapped env, and ``unwrapped`` gives the bare ``Env``.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import jax
+import jax.numpy as jnp
+
+from blx.envs.env import State
+
+__all__ = ["Wrapper", "action_repeat", "episode", "auto_reset", "unwrap"]
+
+
+class Wrapper:
+  """Base wrapper: delegates everything to ``env``."""
+
+  def __init__(self, env: Any):
+    self.env = env
+
+  def __getattr__(self, name: str) -> Any:
+    if name == "env":
+      raise AttributeError(name)
+    return getattr(self.env, name)
+
+  @property
+  def unwrapped(self):
+    return unwrap(self.env)
+
+  def reset(self, key: jax.Array) -> State:
+    return self.env.reset(key)
+
+  def step(self, state: State, action: jax.Array) -> State:
+    return self.env.step(state, action)
+
+  def __repr__(self) -> str:
+    return f"{type(self).__name__}({self.env!r})"
+
+
+def unwrap(env: Any):
+  """The bare ``Env`` under any number of wrappers."""
+  while isinstance(env, Wrapper):
+    env = env.env
+  return env
+
+
+class _ActionRepeat(Wrapper):
+  def __init__(self, env, repeat: int):
+    super().__init__(env)
+    self.action_repeat = repeat
+
+  def step(self, state, action):
+    def one(carry, _):
+      s, reward, done = carry
+      s = self.env.step(s, action)
+      return (s, reward + s.reward, jnp.maximum(done, s.done)), s.metrics
+
+    (state, reward, done), metrics = jax.lax.scan(
+        one, (state, jnp.zeros(()), jnp.zeros(())), None, length=self.action_repeat)
+    summed = {k: v.sum(0) for k, v in metrics.items()}
+    return state.replace(reward=reward, done=done, metrics=summed)
+
+
+def action_repeat(env, repeat: int):
+  """Repeats each action ``repeat`` times; rewards and reward metrics are summed, done is any."""
+  if not isinstance(repeat, int) or isinstance(repeat, bool) or repeat < 1:
+    raise ValueError(f"action_repeat must be a positive int, got {repeat!r}")
+  return env if repeat == 1 else _ActionRepeat(env, repeat)
+
+
+class _Episode(Wrapper):
+  def __init__(self, env, length: int):
+    super().__init__(env)
+    self.episode_length = length
+    self._increment = getattr(env, "action_repeat", 1)  # counts steps of the unrepeated env
+
+  def reset(self, key):
+    state = self.env.reset(key)
+    info = {**state.info, "steps": jnp.zeros(()), "truncation": jnp.zeros(())}
+    return state.replace(info=info)
+
+  def step(self, state, action):
+    state = self.env.step(state, action)
+    steps = state.info["steps"] + self._increment
+    limit = steps >= self.episode_length
+    # Truncation (time limit, not termination) tells the learner to bootstrap from the value.
+    truncation = jnp.where(limit, 1.0 - state.done, 0.0)
+    done = jnp.where(limit, 1.0, state.done)
+    return state.replace(done=done, info={**state.info, "steps": steps, "truncation": truncation})
+
+
+def episode(env, length: int):
+  """Ends episodes after ``length`` steps (of the unrepeated env), setting ``info['truncation']`` = 1 when time ran out."""
+  if not isinstance(length, int) or isinstance(length, bool) or length < 1:
+    raise ValueError(f"episode_length must be a positive int or None, got {length!r}")
+  return _Episode(env, length)
+
+
+class _AutoReset(Wrapper):
+  def reset(self, key):
+    state = self.env.reset(key)
+    return state.replace(info={**state.info, "first_data": state.data, "first_obs": state.obs})
+
+  def step(self, state, action):
+    info = dict(state.info)
+    if "steps" in info:
+      info["steps"] = jnp.where(state.done > 0, 0.0, info["steps"])
+    state = self.env.step(state.replace(done=jnp.zeros_like(state.done), info=info), action)
+    reset = lambda first, now: jnp.where(state.done > 0, first, now)
+    data = jax.tree.map(reset, state.info["first_data"], state.data)
+    obs = reset(state.info["first_obs"], state.obs)
+    return state.replace(data=data, obs=obs)
+
+
+def auto_reset(env):
+  """Returns to the first state of the episode when it ends (the terminal reward and done are kept;
+  ``obs`` becomes the reset observation)."""
+  return _AutoReset(env)
