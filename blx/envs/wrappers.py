@@ -103,7 +103,8 @@ def episode(env, length: int):
 class _AutoReset(Wrapper):
   def reset(self, key):
     state = self.env.reset(key)
-    return state.replace(info={**state.info, "first_data": state.data, "first_obs": state.obs})
+    return state.replace(info={**state.info, "first_data": state.data, "first_obs": state.obs,
+                               "pre_reset_obs": state.obs})
 
   def step(self, state, action):
     info = dict(state.info)
@@ -113,10 +114,13 @@ class _AutoReset(Wrapper):
     reset = lambda first, now: jnp.where(state.done > 0, first, now)
     data = jax.tree.map(reset, state.info["first_data"], state.data)
     obs = reset(state.info["first_obs"], state.obs)
-    return state.replace(data=data, obs=obs)
+    return state.replace(data=data, obs=obs, info={**state.info, "pre_reset_obs": state.obs})
 
 
 def auto_reset(env):
-  """Returns to the first state of the episode when it ends (the terminal reward and done are kept;
-  ``obs`` becomes the reset observation)."""
+  """Returns to the first state of the episode when it ends.
+
+  The terminal step keeps its reward and done; ``obs`` becomes the reset observation and
+  ``info['pre_reset_obs']`` keeps the observation the step really reached (for bootstrapping).
+  """
   return _AutoReset(env)

@@ -1,0 +1,108 @@
+"""``PPOConfig`` and the per-environment defaults of the original Braxlines."""
+
+from __future__ import annotations
+
+import dataclasses
+from typing import Any
+
+__all__ = ["PPOConfig", "ppo_defaults"]
+
+
+@dataclasses.dataclass(frozen=True)
+class PPOConfig:
+  """Static PPO settings (sizes and loop lengths; hashable, so jit can close over it).
+
+  Per iteration, every one of ``num_envs`` envs is unrolled for ``unroll_length`` steps,
+  ``batch_size * num_minibatches // num_envs`` times; the collected sequences are then used for
+  ``num_updates_per_batch`` epochs of ``num_minibatches`` SGD steps on ``batch_size`` sequences.
+  """
+
+  num_timesteps: int = 30_000_000
+  num_envs: int = 2048
+  episode_length: int = 1000
+  action_repeat: int = 1
+  unroll_length: int = 5
+  batch_size: int = 1024
+  num_minibatches: int = 32
+  num_updates_per_batch: int = 4
+  learning_rate: float = 3e-4
+  entropy_cost: float = 1e-2
+  discounting: float = 0.97
+  gae_lambda: float = 0.95
+  clipping_epsilon: float = 0.3
+  reward_scaling: float = 10.0
+  normalize_observations: bool = True
+  max_grad_norm: float | None = None
+  policy_hidden: tuple[int, ...] = (32, 32, 32, 32)
+  value_hidden: tuple[int, ...] = (256, 256, 256, 256, 256)
+  num_evals: int = 20
+  num_eval_envs: int = 128
+  eval_episode_length: int | None = None  # None: episode_length
+
+  def __post_init__(self):
+    positive = ("num_timesteps", "num_envs", "episode_length", "action_repeat", "unroll_length",
+                "batch_size", "num_minibatches", "num_updates_per_batch", "num_evals",
+                "num_eval_envs")
+    for name in positive:
+      value = getattr(self, name)
+      if not isinstance(value, int) or isinstance(value, bool) or value < 1:
+        raise ValueError(f"PPOConfig.{name} must be a positive int, got {value!r}")
+    if (self.batch_size * self.num_minibatches) % self.num_envs:
+      raise ValueError(
+          f"PPOConfig: batch_size * num_minibatches ({self.batch_size * self.num_minibatches}) must "
+          f"be a multiple of num_envs ({self.num_envs})")
+    for name in ("discounting", "gae_lambda"):
+      if not 0.0 <= getattr(self, name) <= 1.0:
+        raise ValueError(f"PPOConfig.{name} must lie in [0, 1], got {getattr(self, name)!r}")
+    if self.learning_rate <= 0 or self.clipping_epsilon <= 0:
+      raise ValueError("PPOConfig: learning_rate and clipping_epsilon must be positive")
+
+  @property
+  def num_unrolls(self) -> int:
+    """Unrolls per env per iteration."""
+    return self.batch_size * self.num_minibatches // self.num_envs
+
+  @property
+  def env_steps_per_iteration(self) -> int:
+    return self.num_envs * self.unroll_length * self.num_unrolls * self.action_repeat
+
+  def replace(self, **changes: Any) -> "PPOConfig":
+    valid = {f.name for f in dataclasses.fields(self)}
+    unknown = sorted(set(changes) - valid)
+    if unknown:
+      raise ValueError(f"PPOConfig: unknown key(s) {unknown}; valid keys are {sorted(valid)}")
+    return dataclasses.replace(self, **changes)
+
+
+# Braxlines experiments/defaults.py (all: episode 1000, normalised observations, lr 3e-4, 2048 envs,
+# 32 minibatches). Composer envs and unknown names use the ant row.
+_ROWS: dict[str, dict[str, Any]] = {
+    "ant": dict(num_timesteps=30_000_000, reward_scaling=10.0, unroll_length=5,
+                num_updates_per_batch=4, discounting=0.97, entropy_cost=1e-2, batch_size=1024,
+                num_evals=20),
+    "humanoid": dict(num_timesteps=50_000_000, reward_scaling=0.1, unroll_length=10,
+                     num_updates_per_batch=8, discounting=0.97, entropy_cost=1e-3, batch_size=1024,
+                     num_evals=20),
+    "halfcheetah": dict(num_timesteps=100_000_000, reward_scaling=1.0, unroll_length=20,
+                        num_updates_per_batch=8, discounting=0.95, entropy_cost=1e-3,
+                        batch_size=512, num_evals=10),
+    # Not in Braxlines: a small row for the point mass, so runs finish in a minute on 2 CPU cores.
+    "point": dict(num_timesteps=200_000, num_envs=64, episode_length=50, unroll_length=10,
+                  batch_size=64, num_minibatches=4, num_updates_per_batch=4, learning_rate=3e-3,
+                  entropy_cost=1e-3, discounting=0.95, reward_scaling=1.0, num_evals=4,
+                  num_eval_envs=16),
+}
+
+
+def ppo_defaults(env_name: str | None = None, **overrides: Any) -> PPOConfig:
+  """The PPO row for ``env_name`` (ant, humanoid, halfcheetah, point; anything else: ant).
+
+  Envs named after a body (``humanoid_run``) take that body's row; ``overrides`` replace fields.
+  """
+  name = env_name or "ant"
+  row = None
+  for key in ("point", "humanoid", "halfcheetah", "ant"):
+    if name == key or name.startswith(key + "_"):
+      row = _ROWS[key]
+      break
+  return PPOConfig(**(row or _ROWS["ant"])).replace(**overrides)

@@ -1,0 +1,146 @@
+"""The host loop: runs the pure train step in chunks, evaluates, reports, checkpoints, resumes."""
+
+from __future__ import annotations
+
+import dataclasses
+import sys
+import time
+from typing import Any, Callable, NamedTuple, Sequence
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from blx.objectives.base import Objective
+from blx.training import checkpoint
+from blx.training.config import PPOConfig
+from blx.training.ppo import TrainState, make_trainer
+
+__all__ = ["TrainResult", "train", "NonFiniteError"]
+
+
+class NonFiniteError(FloatingPointError):
+  """Training produced a non-finite loss, parameter or observation."""
+
+
+class TrainResult(NamedTuple):
+  """What ``train`` returns.
+
+  Attributes:
+    params: ``{"normalizer", "policy", "value", "objective"}``, each leaf with a leading seed axis.
+    metrics: one dict per evaluation: ``env_steps``, ``time``, training means and ``eval/...``
+      values, each a list over seeds.
+    policy: ``policy(params, obs, z=None, key=None, deterministic=True) -> action`` for one seed's
+      params (``jax.tree.map(lambda x: x[i], result.params)``).
+    state: the final ``TrainState`` (leading seed axis).
+  """
+
+  params: dict
+  metrics: list[dict]
+  policy: Callable[..., jax.Array]
+  state: TrainState
+
+
+def _print_progress(row: dict) -> None:
+  evals = ", ".join(f"{k.split('/', 1)[1]} {np.mean(v):.3g}" for k, v in row.items()
+                    if k in ("eval/episode_reward", "eval/episode_score"))
+  print(f"[blx] steps {row['env_steps']:,.0f}/{row['total_steps']:,.0f}  "
+        f"{row['steps_per_second']:,.0f} steps/s  ETA {row['eta_seconds']:.0f}s  {evals}",
+        file=sys.stderr, flush=True)
+
+
+def train(env: Any, objective: Objective, config: PPOConfig, *, seeds: Sequence[int] = (0,),
+          progress: bool | Callable[[dict], None] = True, checkpoint_dir: str | None = None,
+          resume: bool = False) -> TrainResult:
+  """Trains ``objective`` on ``env`` with PPO for every seed in one vmapped program.
+
+  Args:
+    env: an env from ``blx.envs.create`` (the config sets episode length and action repeat).
+    objective: ``blx.objectives.task()`` or any ``Objective``.
+    config: ``PPOConfig``; ``num_evals`` sets how often the host evaluates, reports and checkpoints.
+    seeds: one training run per seed, vmapped.
+    progress: True prints a line per evaluation; a callable receives each metrics row.
+    checkpoint_dir: where to write the state after every chunk (atomically).
+    resume: continue from the checkpoint in ``checkpoint_dir`` if there is one.
+
+  Raises:
+    NonFiniteError: a loss, a parameter or an observation became non-finite; the message names the
+      iteration and the quantity, and the checkpoint of the last good chunk is kept.
+  """
+  seeds = [int(s) for s in seeds]
+  if not seeds:
+    raise ValueError("train: give at least one seed")
+  trainer = make_trainer(env, objective, config)
+  keys = jnp.stack([jax.random.PRNGKey(s) for s in seeds])
+  init_keys = jax.vmap(lambda k: jax.random.split(k)[0])(keys)
+  eval_keys = jax.vmap(lambda k: jax.random.split(k)[1])(keys)
+  init_fn = jax.jit(jax.vmap(trainer.init))
+  chunk_fn = jax.jit(jax.vmap(trainer.chunk))
+  eval_fn = jax.jit(jax.vmap(trainer.evaluate))
+  report = _print_progress if progress is True else (progress or None)
+
+  start_chunk, history = 0, []
+  meta_base = {"seeds": seeds, "config": dataclasses.asdict(config), "objective": objective.name,
+               "num_chunks": trainer.num_chunks}
+  if resume and checkpoint_dir and checkpoint.exists(checkpoint_dir):
+    like = jax.eval_shape(init_fn, init_keys)
+    state, meta = checkpoint.restore(checkpoint_dir, like)
+    for key in ("seeds", "config", "objective"):
+      if _jsonable(meta.get(key)) != _jsonable(meta_base[key]):
+        raise ValueError(f"resume: the checkpoint in {checkpoint_dir} was written with a different "
+                         f"{key} ({meta.get(key)!r}); start a new run or use the same {key}")
+    start_chunk, history = int(meta["chunk"]), list(meta.get("history", []))
+  else:
+    state = init_fn(init_keys)
+
+  total = trainer.num_chunks * trainer.iterations_per_chunk * config.env_steps_per_iteration
+  t0 = time.time()
+  steps0 = start_chunk * trainer.iterations_per_chunk * config.env_steps_per_iteration
+  try:
+    for chunk in range(start_chunk, trainer.num_chunks):
+      state, metrics = chunk_fn(state)
+      metrics = jax.device_get(metrics)
+      _check_finite(metrics, chunk * trainer.iterations_per_chunk, seeds, checkpoint_dir)
+      evals = jax.device_get(eval_fn(state, jax.vmap(jax.random.fold_in, (0, None))(eval_keys,
+                                                                                     chunk)))
+      env_steps = float(np.asarray(state.env_steps)[0])
+      elapsed = time.time() - t0
+      rate = (env_steps - steps0) / max(elapsed, 1e-9)
+      row = {"env_steps": env_steps, "time": elapsed, "steps_per_second": rate,
+             "total_steps": float(total), "eta_seconds": (total - env_steps) / max(rate, 1e-9)}
+      for k, v in metrics.items():
+        if not k.startswith("nonfinite/"):
+          row[k] = np.asarray(v).mean(axis=1).tolist()  # mean over the chunk's iterations
+      row.update({k: np.asarray(v).tolist() for k, v in evals.items()})
+      history.append(row)
+      if checkpoint_dir:
+        checkpoint.save(checkpoint_dir, state, {**meta_base, "chunk": chunk + 1,
+                                                "history": history})
+      if report:
+        report(row)
+  except KeyboardInterrupt:
+    if checkpoint_dir and checkpoint.exists(checkpoint_dir):
+      done = checkpoint.read_meta(checkpoint_dir)["chunk"]
+      print(f"[blx] interrupted; the checkpoint in {checkpoint_dir} holds {done}/"
+            f"{trainer.num_chunks} chunks: call train(..., checkpoint_dir={checkpoint_dir!r}, "
+            "resume=True) to continue", file=sys.stderr)
+    raise
+
+  params = {"normalizer": state.normalizer, "policy": state.params.policy,
+            "value": state.params.value, "objective": state.params.objective}
+  return TrainResult(params=params, metrics=history, policy=trainer.policy, state=state)
+
+
+def _jsonable(x):
+  import json
+  return json.loads(json.dumps(x))
+
+
+def _check_finite(metrics: dict, first_iteration: int, seeds, checkpoint_dir) -> None:
+  for quantity in ("loss", "params", "observation"):
+    flags = np.asarray(metrics[f"nonfinite/{quantity}"])  # [seeds, iterations]
+    if flags.any():
+      seed_idx, it = np.argwhere(flags)[0]
+      kept = (f"; the last good checkpoint in {checkpoint_dir} is kept" if checkpoint_dir else "")
+      raise NonFiniteError(f"non-finite {quantity} at iteration {first_iteration + int(it)} "
+                           f"(seed {seeds[int(seed_idx)]}){kept}")

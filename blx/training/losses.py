@@ -1,0 +1,49 @@
+"""PPO's pieces: generalised advantage estimation and the clipped surrogate."""
+
+from __future__ import annotations
+
+import chex
+import jax
+import jax.numpy as jnp
+
+__all__ = ["gae", "clipped_surrogate"]
+
+
+def gae(reward_t: jax.Array, value_t: jax.Array, next_value_t: jax.Array,
+        termination_t: jax.Array, done_t: jax.Array, *, discount: float,
+        lam: float) -> tuple[jax.Array, jax.Array]:
+  """Generalised advantage estimation over one sequence ``[T]`` (Schulman et al., 2016).
+
+      delta_t = r_t + discount * (1 - term_t) * V(s'_t) - V(s_t)
+      A_t     = delta_t + discount * lam * (1 - done_t) * A_{t+1},   A_T = 0
+
+  ``next_value_t`` is V at the true next state s'_t (before any auto-reset), so a time-limit
+  truncation (done but not terminated) bootstraps from V(s'_t); a termination does not. The
+  recursion stops at every episode end.
+
+  Returns:
+    ``(advantages [T], value targets [T] = A_t + V(s_t))``.
+  """
+  chex.assert_rank([reward_t, value_t, next_value_t, termination_t, done_t], 1)
+  chex.assert_equal_shape([reward_t, value_t, next_value_t, termination_t, done_t])
+  delta = reward_t + discount * (1.0 - termination_t) * next_value_t - value_t
+
+  def backward(next_advantage, inputs):
+    delta_t, done = inputs
+    advantage = delta_t + discount * lam * (1.0 - done) * next_advantage
+    return advantage, advantage
+
+  _, advantages = jax.lax.scan(backward, jnp.zeros((), delta.dtype), (delta, done_t), reverse=True)
+  return advantages, advantages + value_t
+
+
+def clipped_surrogate(log_prob: jax.Array, old_log_prob: jax.Array, advantage: jax.Array, *,
+                      epsilon: float) -> jax.Array:
+  """PPO's clipped objective as a loss (Schulman et al., 2017), averaged over the batch:
+
+      -mean(min(rho * A, clip(rho, 1 - eps, 1 + eps) * A)),  rho = exp(log pi - log pi_old)
+  """
+  chex.assert_equal_shape([log_prob, old_log_prob, advantage])
+  ratio = jnp.exp(log_prob - old_log_prob)
+  clipped = jnp.clip(ratio, 1.0 - epsilon, 1.0 + epsilon)
+  return -jnp.mean(jnp.minimum(ratio * advantage, clipped * advantage))

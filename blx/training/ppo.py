@@ -1,0 +1,312 @@
+"""One PPO for every objective, as pure functions: ``make_train(env, objective, config)(key)``.
+
+The whole run is a pure function of a PRNG key, so ``jax.jit(jax.vmap(train))(keys)`` trains several
+seeds in one program. Data parallelism shards the env axis over all local devices with
+``jax.sharding`` (the same code on 1 or N devices; XLA inserts the gradient all-reduce).
+
+One iteration: roll out ``num_envs`` envs for ``num_unrolls`` x ``unroll_length`` steps with the
+objective's reward -> update the observation normaliser -> ``num_updates_per_batch`` epochs of
+``num_minibatches`` SGD steps on PPO's loss plus the objective's loss, one Adam over both.
+"""
+
+from __future__ import annotations
+
+from typing import Any, Callable, NamedTuple
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import optax
+from flax import struct
+from jax.sharding import Mesh, NamedSharding, PartitionSpec
+
+from blx import envs as envs_lib
+from blx.envs.env import State
+from blx.objectives.base import Objective, Transition
+from blx.training import losses, networks
+from blx.training.config import PPOConfig
+
+__all__ = ["Params", "TrainState", "Trainer", "make_trainer", "make_train", "make_policy"]
+
+
+@struct.dataclass
+class Params:
+  """Everything SGD updates: policy, value and the objective's parameters."""
+
+  policy: Any
+  value: Any
+  objective: Any
+
+
+@struct.dataclass
+class TrainState:
+  """The training state of one seed (a pytree; the loop carry)."""
+
+  params: Params
+  opt_state: Any
+  normalizer: networks.RunningStats
+  env_state: State
+  z: jax.Array            # [num_envs, latent_size], fixed per env for the whole run
+  key: jax.Array
+  env_steps: jax.Array
+  iteration: jax.Array
+
+
+class Rollout(NamedTuple):
+  """Collected steps; leaves are ``[..., num_envs]`` during collection, ``[N, T]`` for SGD."""
+
+  obs: jax.Array
+  raw_action: jax.Array
+  action: jax.Array
+  log_prob: jax.Array
+  next_obs: jax.Array
+  reward: jax.Array
+  env_reward: jax.Array
+  done: jax.Array
+  truncation: jax.Array
+  z: jax.Array
+
+
+class Trainer(NamedTuple):
+  """The pure pieces of a run; ``train`` composes them, the host loop calls them in chunks.
+
+  Attributes:
+    init: ``key -> TrainState``.
+    chunk: ``TrainState -> (TrainState, metrics)``, ``iterations_per_chunk`` iterations; metrics have
+      a leading ``[iterations_per_chunk]`` axis.
+    evaluate: ``(TrainState, key) -> metrics`` from deterministic episodes on fresh envs.
+    train: ``key -> (TrainState, metrics)``, the whole run: ``num_chunks`` chunks, each followed by an
+      evaluation; metrics have a leading ``[num_chunks]`` axis.
+    policy: ``(params, obs, z=None, key=None, deterministic=True) -> action`` with
+      ``params = {"normalizer": ..., "policy": ...}``.
+  """
+
+  init: Callable[[jax.Array], TrainState]
+  chunk: Callable[[TrainState], tuple[TrainState, dict]]
+  evaluate: Callable[[TrainState, jax.Array], dict]
+  train: Callable[[jax.Array], tuple[TrainState, dict]]
+  policy: Callable[..., jax.Array]
+  num_chunks: int
+  iterations_per_chunk: int
+  config: PPOConfig
+
+
+def _data_sharding(num_envs: int) -> Callable[[Any], Any]:
+  """Constrains leaves with a leading env axis to be split over all local devices."""
+  devices = jax.local_devices()
+  if len(devices) == 1:
+    return lambda tree: tree
+  if num_envs % len(devices):
+    raise ValueError(f"num_envs={num_envs} must be divisible by the {len(devices)} local devices")
+  sharding = NamedSharding(Mesh(np.array(devices), ("data",)), PartitionSpec("data"))
+  return lambda tree: jax.tree.map(
+      lambda x: jax.lax.with_sharding_constraint(x, sharding) if x.ndim else x, tree)
+
+
+def make_policy(policy_net: networks.MLP, normalize_observations: bool) -> Callable:
+  """The inference function ``policy(params, obs, z=None, key=None, deterministic=True)``."""
+
+  def policy(params, obs, z=None, key=None, deterministic=True):
+    x = networks.normalize(params["normalizer"], obs, normalize_observations)
+    if z is not None and z.shape[-1]:
+      x = jnp.concatenate([x, z], axis=-1)
+    logits = policy_net.apply(params["policy"], x)
+    if deterministic:
+      return networks.deterministic_action(logits)
+    if key is None:
+      raise ValueError("policy: a key is needed when deterministic=False")
+    return jnp.tanh(networks.sample_raw_action(logits, key))
+
+  return policy
+
+
+def make_trainer(env: Any, objective: Objective, config: PPOConfig) -> Trainer:
+  """Builds the pure training functions for ``env`` (any wrappers are replaced by the config's)."""
+  if not isinstance(config, PPOConfig):
+    raise ValueError(f"config must be a PPOConfig, got {type(config).__name__}")
+  if not isinstance(objective, Objective):
+    raise ValueError(f"objective must be a blx.objectives.Objective, got {type(objective).__name__}")
+  c = config
+  base = envs_lib.unwrap(env)
+  repeated = envs_lib.action_repeat(base, c.action_repeat)
+  train_env = envs_lib.auto_reset(envs_lib.episode(repeated, c.episode_length))
+  eval_env = envs_lib.episode(repeated, c.eval_episode_length or c.episode_length)
+  eval_steps = -(-(c.eval_episode_length or c.episode_length) // c.action_repeat)
+
+  obs_size, action_size = base.observation_size, base.action_size
+  z_size = objective.latent_size
+  policy_in = obs_size + (z_size if objective.conditions_policy else 0)
+  policy_net = networks.MLP((*c.policy_hidden, 2 * action_size))
+  value_net = networks.MLP((*c.value_hidden, 1))
+  optimizer = optax.chain(
+      optax.clip_by_global_norm(c.max_grad_norm) if c.max_grad_norm else optax.identity(),
+      optax.adam(c.learning_rate))
+  shard = _data_sharding(c.num_envs)
+  norm = lambda stats, x: networks.normalize(stats, x, c.normalize_observations)
+
+  iterations = -(-c.num_timesteps // c.env_steps_per_iteration)
+  num_chunks = min(c.num_evals, iterations)
+  iterations_per_chunk = -(-iterations // num_chunks)
+
+  def policy_input(stats, obs, z):
+    x = norm(stats, obs)
+    return jnp.concatenate([x, z], -1) if objective.conditions_policy else x
+
+  def init(key: jax.Array) -> TrainState:
+    policy_key, value_key, obj_key, env_key, z_key, key = jax.random.split(key, 6)
+    params = Params(
+        policy=policy_net.init(policy_key, jnp.zeros((policy_in,))),
+        value=value_net.init(value_key, jnp.zeros((policy_in,))),
+        objective=objective.init(obj_key, obs_size))
+    env_state = jax.vmap(train_env.reset)(jax.random.split(env_key, c.num_envs))
+    z = jax.vmap(objective.sample_latent)(jax.random.split(z_key, c.num_envs))
+    return TrainState(params=params, opt_state=optimizer.init(params),
+                      normalizer=networks.init_stats(obs_size), env_state=shard(env_state),
+                      z=shard(z), key=key, env_steps=jnp.zeros((), jnp.float32),
+                      iteration=jnp.zeros((), jnp.int32))
+
+  def env_step(params: Params, stats, z, env_state: State, key: jax.Array):
+    logits = policy_net.apply(params.policy, policy_input(stats, env_state.obs, z))
+    raw = networks.sample_raw_action(logits, key)
+    action = jnp.tanh(raw)
+    next_state = jax.vmap(train_env.step)(env_state, action)
+    next_obs = next_state.info["pre_reset_obs"]
+    transition = Transition(env_state.obs, action, next_obs, next_state.reward, z)
+    reward = jax.vmap(objective.reward, (None, 0))(
+        jax.lax.stop_gradient(params.objective), transition)
+    step = Rollout(env_state.obs, raw, action, networks.log_prob_raw(logits, raw), next_obs, reward,
+                   next_state.reward, next_state.done, next_state.info["truncation"], z)
+    return shard(next_state), step
+
+  def loss_fn(params: Params, batch: Rollout, stats, key):
+    """PPO loss + objective loss on sequences ``[B, T]``; returns (scalar, metrics)."""
+    entropy_key, obj_key = jax.random.split(key)
+    x = policy_input(stats, batch.obs, batch.z)
+    x_next = policy_input(stats, batch.next_obs, batch.z)
+    logits = policy_net.apply(params.policy, x)
+    value = value_net.apply(params.value, x)[..., 0]
+    next_value = value_net.apply(params.value, x_next)[..., 0]
+    termination = batch.done * (1.0 - batch.truncation)
+    advantage, target = jax.vmap(
+        lambda r, v, nv, t, d: losses.gae(r, v, nv, t, d, discount=c.discounting,
+                                          lam=c.gae_lambda))(
+        batch.reward * c.reward_scaling, jax.lax.stop_gradient(value),
+        jax.lax.stop_gradient(next_value), termination, batch.done)
+    advantage = (advantage - advantage.mean()) / (advantage.std() + 1e-8)
+    log_prob = networks.log_prob_raw(logits, batch.raw_action)
+    policy_loss = losses.clipped_surrogate(log_prob, batch.log_prob, advantage,
+                                           epsilon=c.clipping_epsilon)
+    value_loss = 0.25 * jnp.mean((value - target) ** 2)
+    entropy = jnp.mean(networks.entropy(logits, entropy_key))
+    entropy_loss = -c.entropy_cost * entropy
+    flat = lambda x: x.reshape((x.shape[0] * x.shape[1],) + x.shape[2:])
+    transitions = Transition(flat(batch.obs), flat(batch.action), flat(batch.next_obs),
+                             flat(batch.env_reward), flat(batch.z))
+    objective_loss, objective_metrics = objective.loss(params.objective, transitions, obj_key)
+    total = policy_loss + value_loss + entropy_loss + objective_loss
+    metrics = {"loss/total": total, "loss/policy": policy_loss, "loss/value": value_loss,
+               "loss/entropy": entropy_loss, "loss/objective": objective_loss,
+               "policy/entropy": entropy, **objective_metrics}
+    return total, metrics
+
+  def sgd_step(carry, inputs):
+    params, opt_state, stats = carry
+    batch, key = inputs
+    grads, metrics = jax.grad(loss_fn, has_aux=True)(params, batch, stats, key)
+    updates, opt_state = optimizer.update(grads, opt_state, params)
+    params = optax.apply_updates(params, updates)
+    metrics["grad_norm"] = optax.global_norm(grads)
+    return (params, opt_state, stats), metrics
+
+  def iteration(state: TrainState, _):
+    key, rollout_key, sgd_key = jax.random.split(state.key, 3)
+
+    def unroll(env_state, key):
+      def one(env_state, key):
+        return env_step(state.params, state.normalizer, state.z, env_state, key)
+      return jax.lax.scan(one, env_state, jax.random.split(key, c.unroll_length))
+
+    env_state, data = jax.lax.scan(unroll, state.env_state,
+                                   jax.random.split(rollout_key, c.num_unrolls))
+    # [U, T, N, ...] -> [U * N, T, ...]: sequences of unroll_length steps.
+    data = jax.tree.map(lambda x: jnp.swapaxes(x, 1, 2).reshape(
+        (c.num_unrolls * c.num_envs, c.unroll_length) + x.shape[3:]), data)
+    normalizer = state.normalizer
+    if c.normalize_observations:
+      normalizer = networks.update_stats(normalizer, data.obs.reshape(-1, obs_size))
+
+    def epoch(carry, key):
+      perm_key, step_key = jax.random.split(key)
+      perm = jax.random.permutation(perm_key, c.num_unrolls * c.num_envs)
+      batches = jax.tree.map(lambda x: x[perm].reshape(
+          (c.num_minibatches, c.batch_size) + x.shape[1:]), data)
+      keys = jax.random.split(step_key, c.num_minibatches)
+      return jax.lax.scan(sgd_step, carry, (batches, keys))
+
+    (params, opt_state, _), metrics = jax.lax.scan(
+        epoch, (state.params, state.opt_state, normalizer),
+        jax.random.split(sgd_key, c.num_updates_per_batch))
+    metrics = jax.tree.map(jnp.mean, metrics)
+    metrics.update({
+        "train/reward": data.reward.mean(),
+        "train/env_reward": data.env_reward.mean(),
+        "train/episode_end_rate": data.done.mean(),
+        "nonfinite/loss": ~jnp.isfinite(metrics["loss/total"]),
+        "nonfinite/params": ~jnp.all(jnp.stack([jnp.isfinite(x).all()
+                                                for x in jax.tree.leaves(params)])),
+        "nonfinite/observation": ~(jnp.isfinite(data.obs).all() & jnp.isfinite(data.next_obs).all()),
+    })
+    state = state.replace(params=params, opt_state=opt_state, normalizer=normalizer,
+                          env_state=env_state, key=key,
+                          env_steps=state.env_steps + c.env_steps_per_iteration,
+                          iteration=state.iteration + 1)
+    return state, metrics
+
+  def chunk(state: TrainState):
+    return jax.lax.scan(iteration, state, None, length=iterations_per_chunk)
+
+  policy = make_policy(policy_net, c.normalize_observations)
+
+  def evaluate(state: TrainState, key: jax.Array) -> dict:
+    reset_key, z_key = jax.random.split(key)
+    env_state = jax.vmap(eval_env.reset)(jax.random.split(reset_key, c.num_eval_envs))
+    z = jax.vmap(objective.sample_latent)(jax.random.split(z_key, c.num_eval_envs))
+    params = {"normalizer": state.normalizer, "policy": state.params.policy}
+
+    def one(carry, _):
+      env_state, alive, totals = carry
+      action = policy(params, env_state.obs, z if objective.conditions_policy else None)
+      next_state = jax.vmap(eval_env.step)(env_state, action)
+      transition = Transition(env_state.obs, action, next_state.obs, next_state.reward, z)
+      reward = jax.vmap(objective.reward, (None, 0))(state.params.objective, transition)
+      step = {"eval/episode_reward": reward, "eval/episode_env_reward": next_state.reward,
+              "eval/episode_length": jnp.ones_like(reward) * c.action_repeat,
+              **{f"eval/episode_{k}": v for k, v in next_state.metrics.items()}}
+      totals = jax.tree.map(lambda t, s: t + alive * s, totals, step)
+      return (next_state, alive * (1.0 - next_state.done), totals), None
+
+    zeros = {k: jnp.zeros(c.num_eval_envs) for k in
+             ["eval/episode_reward", "eval/episode_env_reward", "eval/episode_length"]
+             + [f"eval/episode_{k}" for k in env_state.metrics]}
+    (_, _, totals), _ = jax.lax.scan(one, (env_state, jnp.ones(c.num_eval_envs), zeros), None,
+                                     length=eval_steps)
+    return jax.tree.map(jnp.mean, totals)
+
+  def train(key: jax.Array):
+    init_key, eval_key = jax.random.split(key)
+    state = init(init_key)
+
+    def one_chunk(state, key):
+      state, metrics = chunk(state)
+      metrics = jax.tree.map(lambda x: x.mean(0) if x.dtype != bool else x.any(0), metrics)
+      return state, {**metrics, **evaluate(state, key)}
+
+    return jax.lax.scan(one_chunk, state, jax.random.split(eval_key, num_chunks))
+
+  return Trainer(init=init, chunk=chunk, evaluate=evaluate, train=train, policy=policy,
+                 num_chunks=num_chunks, iterations_per_chunk=iterations_per_chunk, config=c)
+
+
+def make_train(env: Any, objective: Objective, config: PPOConfig) -> Callable:
+  """``train(key) -> (TrainState, metrics)``: the whole run as one pure function."""
+  return make_trainer(env, objective, config).train
