@@ -1,0 +1,92 @@
+"""Env steps/s of every registered env beside raw ``mjx.step`` throughput of the same model.
+
+    python benchmarks/env_throughput.py [--num-envs 4096] [--steps 100] [--envs ant,humanoid]
+
+For each env: the jitted, vmapped ``env.step`` (physics substeps + observations + rewards +
+termination) scanned for ``--steps`` steps, and the bare ``mjx.step`` on the same compiled model run
+``substeps`` times per env step. The ratio env/raw is the env's overhead. Prints a Markdown table
+(and with --json, one JSON line per env).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import time
+
+import jax
+import jax.numpy as jnp
+from mujoco import mjx
+
+from blx import envs
+
+
+def _time(fn, *args, repeats=3):
+  out = fn(*args)
+  jax.block_until_ready(out)
+  best = float("inf")
+  for _ in range(repeats):
+    t = time.perf_counter()
+    jax.block_until_ready(fn(*args))
+    best = min(best, time.perf_counter() - t)
+  return best
+
+
+def measure(name: str, num_envs: int, steps: int) -> dict:
+  env = envs.unwrap(envs.create(name))
+  keys = jax.random.split(jax.random.PRNGKey(0), num_envs)
+  t0 = time.perf_counter()
+  state = jax.jit(jax.vmap(env.reset))(keys)
+  actions = jax.random.uniform(jax.random.PRNGKey(1), (steps, num_envs, env.action_size),
+                               minval=-1, maxval=1)
+
+  @jax.jit
+  def run_env(state, actions):
+    def one(s, a):
+      s = jax.vmap(env.step)(s, a)
+      return s, s.reward.sum()
+    return jax.lax.scan(one, state, actions)[1].sum()
+
+  @jax.jit
+  def run_raw(data, actions):
+    def one(d, a):
+      d = d.replace(ctrl=a)
+      d = jax.vmap(lambda x: jax.lax.fori_loop(
+          0, env.substeps, lambda _, y: mjx.step(env.mjx_model, y), x))(d)
+      return d, d.qpos.sum()
+    return jax.lax.scan(one, data, actions)[1].sum()
+
+  jax.block_until_ready(run_env(state, actions))
+  compile_s = time.perf_counter() - t0
+  env_s = _time(run_env, state, actions)
+  raw_s = _time(run_raw, state.data, actions)
+  env_sps, raw_sps = num_envs * steps / env_s, num_envs * steps / raw_s
+  return dict(env=name, num_envs=num_envs, substeps=env.substeps, env_steps_per_s=env_sps,
+              raw_env_steps_per_s=raw_sps, raw_physics_steps_per_s=raw_sps * env.substeps,
+              ratio=env_sps / raw_sps, compile_s=compile_s)
+
+
+def main():
+  parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+  parser.add_argument("--num-envs", type=int, default=4096)
+  parser.add_argument("--steps", type=int, default=100)
+  parser.add_argument("--envs", default=",".join(envs.list_envs()))
+  parser.add_argument("--json", action="store_true")
+  args = parser.parse_args()
+  rows = []
+  for name in args.envs.split(","):
+    row = measure(name, args.num_envs, args.steps)
+    rows.append(row)
+    if args.json:
+      print(json.dumps(row), flush=True)
+  print(f"\ndevice: {jax.devices()[0].device_kind}; jax {jax.__version__}; num_envs {args.num_envs}")
+  print("| env | env steps/s | raw mjx.step (env-step equiv.)/s | raw physics steps/s | env/raw | "
+        "compile s |")
+  print("| --- | ---: | ---: | ---: | ---: | ---: |")
+  for r in rows:
+    print(f"| {r['env']} | {r['env_steps_per_s']:,.0f} | {r['raw_env_steps_per_s']:,.0f} | "
+          f"{r['raw_physics_steps_per_s']:,.0f} | {r['ratio']:.2f} | {r['compile_s']:.1f} |")
+
+
+if __name__ == "__main__":
+  main()

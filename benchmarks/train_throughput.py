@@ -1,0 +1,91 @@
+"""PPO training throughput on Ant beside raw ``mjx.step`` throughput, measured in one run.
+
+    python benchmarks/train_throughput.py [--num-envs 2048,4096,8192,16384] [--iterations 20]
+
+For each num_envs: the ant row of ``ppo_defaults`` (num_envs changed; batch_size * num_minibatches
+= num_envs / 2, 32 minibatches: 16 unrolls per env per iteration as the original), time from start to the first finished training chunk (compile
+included), then env steps/s of the jitted chunk; raw physics is ``mjx.step`` on the same model at the
+same batch, expressed per env step (5 substeps). Prints a Markdown table.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import time
+
+import jax
+import jax.numpy as jnp
+from mujoco import mjx
+
+from blx import envs, training
+from blx.objectives import task
+
+
+def raw_physics(env, num_envs: int, steps: int = 50) -> float:
+  base = envs.unwrap(env)
+  data = jax.jit(jax.vmap(base.reset))(jax.random.split(jax.random.PRNGKey(0), num_envs)).data
+
+  @jax.jit
+  def run(data):
+    def one(d, _):
+      d = jax.vmap(lambda x: jax.lax.fori_loop(
+          0, base.substeps, lambda _, y: mjx.step(base.mjx_model, y), x))(d)
+      return d, None
+    return jax.lax.scan(one, data, None, length=steps)[0].qpos.sum()
+
+  jax.block_until_ready(run(data))
+  t = time.perf_counter()
+  jax.block_until_ready(run(data))
+  return num_envs * steps / (time.perf_counter() - t)
+
+
+def measure(env_name: str, num_envs: int, iterations: int) -> dict:
+  env = envs.create(env_name)
+  # Keep the ant row's 16 unrolls per env per iteration (2048 envs, batch 1024, 32 minibatches).
+  config = training.ppo_defaults(env_name, num_envs=num_envs, batch_size=num_envs // 2,
+                                 num_minibatches=32, num_timesteps=10**12, num_evals=10**6)
+  config = config.replace(num_timesteps=config.env_steps_per_iteration * iterations * 10**6)
+  trainer = training.make_trainer(env, task(), config)
+  assert trainer.iterations_per_chunk == 1
+  t0 = time.perf_counter()
+  state = jax.jit(trainer.init)(jax.random.PRNGKey(0))
+  chunk = jax.jit(trainer.chunk)
+  state, _ = chunk(state)
+  jax.block_until_ready(state.params)
+  first_step_s = time.perf_counter() - t0
+  t = time.perf_counter()
+  for _ in range(iterations):
+    state, metrics = chunk(state)
+  jax.block_until_ready(state.params)
+  train_sps = config.env_steps_per_iteration * iterations / (time.perf_counter() - t)
+  raw_sps = raw_physics(env, num_envs)
+  return dict(env=env_name, num_envs=num_envs, batch_size=config.batch_size,
+              num_minibatches=config.num_minibatches, train_env_steps_per_s=train_sps,
+              raw_env_steps_per_s=raw_sps, ratio=train_sps / raw_sps,
+              start_to_first_step_s=first_step_s,
+              steps_per_iteration=config.env_steps_per_iteration)
+
+
+def main():
+  parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+  parser.add_argument("--env", default="ant")
+  parser.add_argument("--num-envs", default="2048,4096,8192,16384")
+  parser.add_argument("--iterations", type=int, default=10)
+  args = parser.parse_args()
+  rows = []
+  for n in [int(x) for x in args.num_envs.split(",")]:
+    row = measure(args.env, n, args.iterations)
+    rows.append(row)
+    print(json.dumps(row), flush=True)
+  print(f"\ndevice: {jax.devices()[0].device_kind}; jax {jax.__version__}")
+  print("| env | num_envs | train env steps/s | raw physics env steps/s | train/raw | "
+        "start to first step s |")
+  print("| --- | ---: | ---: | ---: | ---: | ---: |")
+  for r in rows:
+    print(f"| {r['env']} | {r['num_envs']} | {r['train_env_steps_per_s']:,.0f} | "
+          f"{r['raw_env_steps_per_s']:,.0f} | {r['ratio']:.2f} | {r['start_to_first_step_s']:.1f} |")
+
+
+if __name__ == "__main__":
+  main()
