@@ -1,0 +1,23 @@
+"""Every Python code block of the README runs."""
+
+import os
+import re
+
+import pytest
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+with open(os.path.join(ROOT, "README.md")) as f:
+  BLOCKS = re.findall(r"```python\n(.*?)```", f.read(), flags=re.S)
+
+
+def test_readme_has_python_blocks():
+  assert len(BLOCKS) >= 2
+
+
+@pytest.mark.parametrize("index", range(len(BLOCKS)))
+def test_readme_block_runs(index, capsys):
+  exec(compile(BLOCKS[index], f"README block {index}", "exec"), {})
+  out = capsys.readouterr().out
+  assert out.strip(), "the block prints its results"
+  if index == 0:
+    assert out.splitlines()[0] == "51 12" and "(17, 18)" in out
