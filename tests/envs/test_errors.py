@@ -78,9 +78,6 @@ def test_unknown_named_index_set_lists_the_valid_ones():
 
 
 def test_register_component_and_env():
-  def tiny_ball(radius: float = 0.3):
-    return envs.components.singleton(size=radius) if hasattr(envs, "components") else None
-
   from blx.envs import components as comps
   envs.register_component("test_tiny_ball", lambda radius=0.3: comps.singleton(size=radius))
   envs.register_env("test_point_and_ball", dict(components=dict(
