@@ -73,7 +73,9 @@ class Env:
     self.dt = float(self.mj_model.opt.timestep) * self.substeps
     self.action_size = int(self.mj_model.nu)
 
-    self._handles = {n: self._resolve(n, spec) for n, spec in scene.specs.items()}
+    rest = mujoco.MjData(self.mj_model)
+    mujoco.mj_forward(self.mj_model, rest)  # world pose of every body at qpos0, shared by all
+    self._handles = {n: self._resolve(n, spec, rest) for n, spec in scene.specs.items()}
     comps = self.desc["components"]
     pieces: list[ObsPiece] = []
     terms: list[RewardTerm] = []
@@ -123,10 +125,8 @@ class Env:
     self._data0 = mjx.make_data(self.mjx_model)
 
   # ------------------------------------------------------------------------------------------------
-  def _resolve(self, comp: str, spec) -> Handle:
+  def _resolve(self, comp: str, spec, rest: mujoco.MjData) -> Handle:
     m = self.mj_model
-    rest = mujoco.MjData(m)
-    mujoco.mj_forward(m, rest)  # world pose of every body at qpos0
     body = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, f"{comp}/{spec.root}")
     jid = lambda j: mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_JOINT, f"{comp}/{j}")
     lin_axes, lin_dofs, slides, ang_axes, ang_dofs, hinges = [], [], [], [], [], []
