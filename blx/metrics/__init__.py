@@ -1,7 +1,13 @@
-"""blx.metrics — stationary metrics of reward-free behaviour, as pure functions of arrays."""
+"""blx.metrics — stationary metrics of reward-free behaviour: pure functions of arrays
+(``particle``) and the evaluation helpers that roll trained policies out to feed them
+(``evaluate``)."""
 
+from blx.metrics.evaluate import (dmin_evaluator, eval_indices, evaluate_dmin, evaluate_mimax,
+                                  latents_for_evaluation, mimax_evaluator, rollout)
 from blx.metrics.particle import (energy_distance, entropy, entropy_2d, latent_goal_reaching,
                                   mutual_information, mutual_information_2d, state_coverage)
 
 __all__ = ["energy_distance", "entropy", "entropy_2d", "latent_goal_reaching",
-           "mutual_information", "mutual_information_2d", "state_coverage"]
+           "mutual_information", "mutual_information_2d", "state_coverage",
+           "rollout", "latents_for_evaluation", "eval_indices", "mimax_evaluator",
+           "dmin_evaluator", "evaluate_mimax", "evaluate_dmin"]

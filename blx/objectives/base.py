@@ -8,7 +8,8 @@ loss in the same SGD step. It never looks inside.
 
 from __future__ import annotations
 
-from typing import Any, Callable, NamedTuple
+import types
+from typing import Any, Callable, Mapping, NamedTuple
 
 import jax
 import jax.numpy as jnp
@@ -47,6 +48,13 @@ class Objective(NamedTuple):
     latent_size: size of z (0 when the objective has no latent).
     conditions_policy: whether the policy sees z.
     name: a short label for logs.
+    post_update: optional ``(params, Transition [N, ...]) -> params``, applied after every SGD step
+      to state that is not learned by gradient (spectral-norm power iterations, running statistics
+      of observations). None: nothing to do.
+    info: static facts for evaluation and plots, never read by the trainer: ``family`` ("mimax",
+      "dmin" or "task"), ``obs_indices``, ``obs_scale``, and per family ``prior``, ``num_skills``,
+      ``infer_latent(params, obs) -> z``, ``posterior_mean(params, obs) -> mean or logits``,
+      ``target``, ``logit(params, x) -> []``.
   """
 
   init: Callable[[jax.Array, int], Params]
@@ -56,6 +64,8 @@ class Objective(NamedTuple):
   latent_size: int = 0
   conditions_policy: bool = False
   name: str = "objective"
+  post_update: Callable[[Params, Transition], Params] | None = None
+  info: Mapping[str, Any] = types.MappingProxyType({})
 
 
 def task() -> Objective:
@@ -68,4 +78,5 @@ def task() -> Objective:
       latent_size=0,
       conditions_policy=False,
       name="task",
+      info=types.MappingProxyType({"family": "task"}),
   )

@@ -41,9 +41,13 @@ class TrainResult(NamedTuple):
   state: TrainState
 
 
+_PROGRESS_KEYS = ("eval/episode_reward", "eval/episode_score", "disc/accuracy", "eval/mi",
+                  "eval/lgr", "eval/energy_distance")
+
+
 def _print_progress(row: dict) -> None:
   evals = ", ".join(f"{k.split('/', 1)[1]} {np.mean(v):.3g}" for k, v in row.items()
-                    if k in ("eval/episode_reward", "eval/episode_score"))
+                    if k in _PROGRESS_KEYS)
   print(f"[blx] steps {row['env_steps']:,.0f}/{row['total_steps']:,.0f}  "
         f"{row['steps_per_second']:,.0f} steps/s  ETA {row['eta_seconds']:.0f}s  {evals}",
         file=sys.stderr, flush=True)
@@ -51,7 +55,7 @@ def _print_progress(row: dict) -> None:
 
 def train(env: Any, objective: Objective, config: PPOConfig, *, seeds: Sequence[int] = (0,),
           progress: bool | Callable[[dict], None] = True, checkpoint_dir: str | None = None,
-          resume: bool = False) -> TrainResult:
+          resume: bool = False, evaluate: Callable | None = None) -> TrainResult:
   """Trains ``objective`` on ``env`` with PPO for every seed in one vmapped program.
 
   Args:
@@ -62,6 +66,9 @@ def train(env: Any, objective: Objective, config: PPOConfig, *, seeds: Sequence[
     progress: True prints a line per evaluation; a callable receives each metrics row.
     checkpoint_dir: where to write the state after every chunk (atomically).
     resume: continue from the checkpoint in ``checkpoint_dir`` if there is one.
+    evaluate: optional ``(policy, params, key) -> metrics`` run after every chunk beside PPO's
+      evaluation (vmapped over seeds), e.g. ``blx.metrics.mimax_evaluator(env, objective)`` for
+      MI, H(s), LGR and coverage curves; off by default for speed.
 
   Raises:
     NonFiniteError: a loss, a parameter or an observation became non-finite; the message names the
@@ -78,6 +85,10 @@ def train(env: Any, objective: Objective, config: PPOConfig, *, seeds: Sequence[
   chunk_fn = jax.jit(jax.vmap(trainer.chunk))
   eval_fn = jax.jit(jax.vmap(trainer.evaluate))
   report = _print_progress if progress is True else (progress or None)
+  extra_eval_fn = None
+  if evaluate is not None:
+    extra_eval_fn = jax.jit(jax.vmap(
+        lambda state, key: evaluate(trainer.policy, _export_params(state), key)))
 
   start_chunk, history = 0, []
   meta_base = {"seeds": seeds, "config": dataclasses.asdict(config), "objective": objective.name,
@@ -103,6 +114,9 @@ def train(env: Any, objective: Objective, config: PPOConfig, *, seeds: Sequence[
       _check_finite(metrics, chunk * trainer.iterations_per_chunk, seeds, checkpoint_dir)
       evals = jax.device_get(eval_fn(state, jax.vmap(jax.random.fold_in, (0, None))(eval_keys,
                                                                                      chunk)))
+      if extra_eval_fn is not None:
+        extra_keys = jax.vmap(jax.random.fold_in, (0, None))(eval_keys, 1_000_003 + chunk)
+        evals = {**evals, **jax.device_get(extra_eval_fn(state, extra_keys))}
       env_steps = float(np.asarray(state.env_steps)[0])
       elapsed = time.time() - t0
       rate = (env_steps - steps0) / max(elapsed, 1e-9)
@@ -126,9 +140,12 @@ def train(env: Any, objective: Objective, config: PPOConfig, *, seeds: Sequence[
             "resume=True) to continue", file=sys.stderr)
     raise
 
-  params = {"normalizer": state.normalizer, "policy": state.params.policy,
-            "value": state.params.value, "objective": state.params.objective}
-  return TrainResult(params=params, metrics=history, policy=trainer.policy, state=state)
+  return TrainResult(params=_export_params(state), metrics=history, policy=trainer.policy, state=state)
+
+
+def _export_params(state: TrainState) -> dict:
+  return {"normalizer": state.normalizer, "policy": state.params.policy,
+          "value": state.params.value, "objective": state.params.objective}
 
 
 def _jsonable(x):

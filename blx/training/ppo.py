@@ -103,6 +103,13 @@ def _data_sharding(num_envs: int) -> Callable[[Any], Any]:
       lambda x: jax.lax.with_sharding_constraint(x, sharding) if x.ndim else x, tree)
 
 
+def _transitions(batch: Rollout) -> Transition:
+  """Sequences ``[B, T, ...]`` flattened into the objective's ``[B * T, ...]`` transitions."""
+  flat = lambda x: x.reshape((x.shape[0] * x.shape[1],) + x.shape[2:])
+  return Transition(flat(batch.obs), flat(batch.action), flat(batch.next_obs),
+                    flat(batch.env_reward), flat(batch.z))
+
+
 def make_policy(policy_net: networks.MLP, normalize_observations: bool) -> Callable:
   """The inference function ``policy(params, obs, z=None, key=None, deterministic=True)``."""
 
@@ -199,10 +206,8 @@ def make_trainer(env: Any, objective: Objective, config: PPOConfig) -> Trainer:
     value_loss = 0.25 * jnp.mean((value - target) ** 2)
     entropy = jnp.mean(networks.entropy(logits, entropy_key))
     entropy_loss = -c.entropy_cost * entropy
-    flat = lambda x: x.reshape((x.shape[0] * x.shape[1],) + x.shape[2:])
-    transitions = Transition(flat(batch.obs), flat(batch.action), flat(batch.next_obs),
-                             flat(batch.env_reward), flat(batch.z))
-    objective_loss, objective_metrics = objective.loss(params.objective, transitions, obj_key)
+    objective_loss, objective_metrics = objective.loss(params.objective, _transitions(batch),
+                                                       obj_key)
     total = policy_loss + value_loss + entropy_loss + objective_loss
     metrics = {"loss/total": total, "loss/policy": policy_loss, "loss/value": value_loss,
                "loss/entropy": entropy_loss, "loss/objective": objective_loss,
@@ -215,6 +220,9 @@ def make_trainer(env: Any, objective: Objective, config: PPOConfig) -> Trainer:
     grads, metrics = jax.grad(loss_fn, has_aux=True)(params, batch, stats, key)
     updates, opt_state = optimizer.update(grads, opt_state, params)
     params = optax.apply_updates(params, updates)
+    if objective.post_update is not None:  # state outside the gradient, e.g. spectral-norm vectors
+      params = params.replace(objective=objective.post_update(params.objective,
+                                                              _transitions(batch)))
     metrics["grad_norm"] = optax.global_norm(grads)
     return (params, opt_state, stats), metrics
 

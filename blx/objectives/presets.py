@@ -1,0 +1,462 @@
+"""The Braxlines presets (paper Table 1), each a function returning an ``Objective``.
+
+MI-max (variational empowerment, reward r = log q(z|s') + offset):
+
+| preset       | z                | p(z)                               | q(z|s)                      | learned |
+| ------------ | ---------------- | ---------------------------------- | --------------------------- | ------- |
+| fixed_gcrl   | d = #indices     | z = obs_scale in every dimension   | N(s_idx, I)                 | no      |
+| gcrl         | d                | U(-obs_scale/2, obs_scale/2)^d     | N(s_idx, I)                 | no      |
+| cdiayn       | d                | U(-1, 1)^d                         | N(MLP(s_idx), I)            | yes     |
+| diayn        | K one-hot        | uniform over K                     | Cat(MLP(s_idx))             | yes     |
+| diayn_full   | K one-hot        | uniform over K                     | Cat(MLP(s)), full obs       | yes     |
+
+D-min (state-marginal matching to a target p*(s), reward from the clipped logit l of the pre-step
+state): ``gail`` softplus(l), ``gail2`` log sigmoid(l) + c, ``airl`` l + c, ``fairl`` -l e^l + c, and
+``mle`` log p*(s) + offset (an oracle for a known density). ``task`` maximises the env's reward.
+
+Every preset takes keyword-only options; ``make(name, **options)`` builds one by name. Observation
+indices may be ints or names such as ``"vel_xy"``; names are resolved through ``env=`` (anything with
+an ``obs_indices(name)`` method, e.g. a ``blx.envs.Env``), so this module never imports the envs.
+"""
+
+from __future__ import annotations
+
+import inspect
+import itertools
+import types
+from typing import Any, Callable, Sequence
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from blx import running_stats
+from blx.objectives import dmin, mimax, priors, spectral
+from blx.objectives.base import Objective, Transition, task
+from blx.objectives.targets import Target, multimode_gaussian
+
+__all__ = ["gcrl", "fixed_gcrl", "cdiayn", "diayn", "diayn_full", "gail", "gail2", "airl", "fairl",
+           "mle", "task", "make", "list_objectives", "options_of", "resolve_indices", "MIMAX",
+           "DMIN"]
+
+MIMAX = ("gcrl", "fixed_gcrl", "cdiayn", "diayn", "diayn_full")
+DMIN = ("gail", "gail2", "airl", "fairl", "mle")
+
+Indices = Sequence[int] | str | Sequence[str] | None
+
+
+# ------------------------------------------------------------------------------------------------
+# Shared pieces
+
+
+def resolve_indices(obs_indices: Indices, env: Any = None, *, who: str) -> tuple[int, ...] | None:
+  """Ints as they are; names (``"vel_xy"`` or a list of names) through ``env.obs_indices``."""
+  if obs_indices is None:
+    return None
+  names = [obs_indices] if isinstance(obs_indices, str) else list(obs_indices)
+  if not names:
+    raise ValueError(f"{who}: obs_indices is empty")
+  out: list[int] = []
+  for item in names:
+    if isinstance(item, str):
+      if env is None or not hasattr(env, "obs_indices"):
+        raise ValueError(f"{who}: obs_indices={item!r} is a name; pass env= to resolve it "
+                         "(or give ints, e.g. env.obs_indices('vel_xy'))")
+      out.extend(int(i) for i in env.obs_indices(item))
+    elif isinstance(item, (int, np.integer)) and not isinstance(item, bool) and item >= 0:
+      out.append(int(item))
+    else:
+      raise ValueError(f"{who}: obs_indices must be non-negative ints or names, got {item!r}")
+  return tuple(out)
+
+
+def _check_indices(indices, obs_size: int, who: str) -> None:
+  if indices is not None and max(indices) >= obs_size:
+    raise ValueError(f"{who}: obs_indices {list(indices)} out of range for an observation of size "
+                     f"{obs_size}")
+
+
+def _select(obs: jax.Array, indices) -> jax.Array:
+  return obs if indices is None else obs[np.asarray(indices)]
+
+
+def _check_options(who: str, *, logits_clip: float, obs_scale: float) -> None:
+  if not logits_clip > 0:
+    raise ValueError(f"{who}: logits_clip must be > 0, got {logits_clip}")
+  if not obs_scale > 0:
+    raise ValueError(f"{who}: obs_scale must be > 0, got {obs_scale}")
+
+
+class _Disc:
+  """A discriminator network with optional spectral norm and input normalisation (pure helpers)."""
+
+  def __init__(self, out: int, hidden: Sequence[int], spectral_norm: bool, normalize_obs: bool):
+    self.net = spectral.DiscriminatorMLP(out=out, hidden=tuple(hidden),
+                                         spectral_norm=spectral_norm)
+    self.spectral_norm = spectral_norm
+    self.normalize_obs = normalize_obs
+
+  def init(self, key: jax.Array, in_size: int) -> dict:
+    params = {"disc": dict(self.net.init(key, jnp.zeros((in_size,))))}
+    if self.normalize_obs:
+      params["obs_stats"] = running_stats.init_stats(in_size)
+    return params
+
+  def apply(self, params: dict, x: jax.Array) -> jax.Array:
+    if self.normalize_obs:
+      x = running_stats.normalize(jax.lax.stop_gradient(params["obs_stats"]), x)
+    return self.net.apply(params["disc"], x)
+
+  def post_update(self, params: dict, x_batch: jax.Array) -> dict:
+    """Advances the spectral-norm vectors one power iteration; merges x_batch into the stats."""
+    params = dict(params)
+    if self.spectral_norm:
+      variables = params["disc"]
+      _, updates = self.net.apply(variables, jnp.zeros(x_batch.shape[-1:]), update_stats=True,
+                                  mutable=["spectral"])
+      params["disc"] = {**variables, "spectral": updates["spectral"]}
+    if self.normalize_obs:
+      params["obs_stats"] = running_stats.update_stats(params["obs_stats"], x_batch)
+    return params
+
+
+def _info(**kwargs) -> types.MappingProxyType:
+  return types.MappingProxyType(kwargs)
+
+
+# ------------------------------------------------------------------------------------------------
+# MI-max
+
+
+def _mimax(name: str, *, prior: priors.Prior, posterior: str, indices, obs_scale: float,
+           logits_clip: float, spectral_norm: bool, env_reward_multiplier: float,
+           normalize_obs: bool, hidden: Sequence[int]) -> Objective:
+  """Builds an MI-max objective; ``posterior`` is "identity" (q = N(s_idx, I)), "gaussian" (an
+  MLP mean) or "categorical" (MLP logits)."""
+  _check_options(name, logits_clip=logits_clip, obs_scale=obs_scale)
+  learned = posterior != "identity"
+  if not learned and (spectral_norm or normalize_obs):
+    raise ValueError(f"{name}: spectral_norm and normalize_obs apply to a learned discriminator; "
+                     f"{name}'s posterior N(s_idx, I) has none")
+  if posterior == "identity" and len(indices) != prior.dim:
+    raise ValueError(f"{name}: {len(indices)} obs_indices for a {prior.dim}-D latent")
+  disc = _Disc(prior.dim, hidden, spectral_norm, normalize_obs) if learned else None
+  categorical = posterior == "categorical"
+  offset = (mimax.categorical_offset(logits_clip) if categorical
+            else mimax.gaussian_offset(prior.dim))
+
+  def init(key, obs_size):
+    _check_indices(indices, obs_size, name)
+    if not learned:
+      return {}
+    return disc.init(key, obs_size if indices is None else len(indices))
+
+  def posterior_out(params, obs):
+    """The posterior's parameter for one observation: the Gaussian mean or the logits ``[Z]``."""
+    x = _select(obs, indices)
+    return disc.apply(params, x) if learned else x
+
+  def log_q(params, obs, z):
+    out = posterior_out(params, obs)
+    if categorical:
+      return mimax.categorical_log_q(z, out, logits_clip=logits_clip)
+    return mimax.gaussian_log_q(z, out, 1.0)
+
+  def reward(params, t: Transition):
+    r = mimax.mimax_reward(log_q(params, t.next_obs, t.z), offset=offset)
+    return r + env_reward_multiplier * t.env_reward
+
+  def loss(params, batch: Transition, key):
+    del key
+    if not learned:
+      return jnp.zeros(()), {}
+    lq = jax.vmap(log_q, (None, 0, 0))(params, batch.next_obs, batch.z)
+    value = -jnp.mean(lq)
+    metrics = {"loss/disc": value, "disc/log_q": jnp.mean(lq)}
+    if categorical:
+      logits = jax.vmap(posterior_out, (None, 0))(params, batch.next_obs)
+      metrics["disc/accuracy"] = jnp.mean(jnp.argmax(logits, -1) == jnp.argmax(batch.z, -1))
+    return value, metrics
+
+  def post_update(params, batch: Transition):
+    return disc.post_update(params, jax.vmap(lambda o: _select(o, indices))(batch.next_obs))
+
+  def infer_latent(params, obs):
+    """The skill that best explains ``obs``: the posterior mean, or the one-hot argmax."""
+    out = posterior_out(params, obs)
+    return jax.nn.one_hot(jnp.argmax(out), prior.dim) if categorical else out
+
+  return Objective(
+      init=init, sample_latent=prior.sample, reward=reward, loss=loss, latent_size=prior.dim,
+      conditions_policy=True, name=name,
+      post_update=post_update if learned and (spectral_norm or normalize_obs) else None,
+      info=_info(family="mimax", obs_indices=indices, obs_scale=float(obs_scale), prior=prior,
+                 num_skills=prior.dim if categorical else None, offset=offset,
+                 posterior=posterior, posterior_out=posterior_out, infer_latent=infer_latent,
+                 log_q=log_q))
+
+
+def _need_indices(name, obs_indices, env):
+  indices = resolve_indices(obs_indices, env, who=name)
+  if indices is None:
+    hint = "; or use diayn_full for the full observation" if "diayn" in name else ""
+    raise ValueError(f"{name}: give obs_indices (ints or a name such as 'vel_xy' with env=){hint}")
+  return indices
+
+
+def fixed_gcrl(*, obs_indices: Indices = None, env: Any = None, obs_scale: float = 5.0,
+               env_reward_multiplier: float = 0.0) -> Objective:
+  """Goal-conditioned RL to one fixed goal z = obs_scale in every indexed dimension;
+  r = 4.5 d - 1/2 ||z - s_idx||^2 + const normaliser terms (>= 0 within 3 of the goal)."""
+  indices = _need_indices("fixed_gcrl", obs_indices, env)
+  return _mimax("fixed_gcrl", prior=priors.deterministic_prior(np.full(len(indices), obs_scale)),
+                posterior="identity", indices=indices, obs_scale=obs_scale, logits_clip=5.0,
+                spectral_norm=False, env_reward_multiplier=env_reward_multiplier,
+                normalize_obs=False, hidden=())
+
+
+def gcrl(*, obs_indices: Indices = None, env: Any = None, obs_scale: float = 5.0,
+         env_reward_multiplier: float = 0.0) -> Objective:
+  """Goal-conditioned RL: z ~ U(-obs_scale/2, obs_scale/2)^d, q(z|s) = N(s_idx, I)."""
+  indices = _need_indices("gcrl", obs_indices, env)
+  half = 0.5 * obs_scale
+  return _mimax("gcrl", prior=priors.uniform_prior(-half, half, len(indices)),
+                posterior="identity", indices=indices, obs_scale=obs_scale, logits_clip=5.0,
+                spectral_norm=False, env_reward_multiplier=env_reward_multiplier,
+                normalize_obs=False, hidden=())
+
+
+def cdiayn(*, obs_indices: Indices = None, env: Any = None, obs_scale: float = 5.0,
+           spectral_norm: bool = False, env_reward_multiplier: float = 0.0,
+           normalize_obs: bool = False, hidden: Sequence[int] = (32, 32)) -> Objective:
+  """Continuous DIAYN: z ~ U(-1, 1)^d, q(z|s) = N(MLP(s_idx), I) with a learned MLP."""
+  indices = _need_indices("cdiayn", obs_indices, env)
+  return _mimax("cdiayn", prior=priors.uniform_prior(-1.0, 1.0, len(indices)),
+                posterior="gaussian", indices=indices, obs_scale=obs_scale, logits_clip=5.0,
+                spectral_norm=spectral_norm, env_reward_multiplier=env_reward_multiplier,
+                normalize_obs=normalize_obs, hidden=hidden)
+
+
+def diayn(*, num_skills: int = 8, obs_indices: Indices = None, env: Any = None,
+          obs_scale: float = 5.0, logits_clip: float = 5.0, spectral_norm: bool = False,
+          env_reward_multiplier: float = 0.0, normalize_obs: bool = False,
+          hidden: Sequence[int] = (32, 32)) -> Objective:
+  """DIAYN (Eysenbach et al. 2019): K one-hot skills, q(z|s) = Cat(MLP(s_idx)) on chosen features;
+  r = log softmax(clip(l - max l, -c))[z] + c, which is c - log K for an undecided discriminator."""
+  indices = _need_indices("diayn", obs_indices, env)
+  return _mimax("diayn", prior=priors.categorical_prior(num_skills), posterior="categorical",
+                indices=indices, obs_scale=obs_scale, logits_clip=logits_clip,
+                spectral_norm=spectral_norm, env_reward_multiplier=env_reward_multiplier,
+                normalize_obs=normalize_obs, hidden=hidden)
+
+
+def diayn_full(*, num_skills: int = 8, obs_scale: float = 5.0, logits_clip: float = 5.0,
+               spectral_norm: bool = False, env_reward_multiplier: float = 0.0,
+               normalize_obs: bool = False, hidden: Sequence[int] = (32, 32),
+               obs_indices: Indices = None, env: Any = None) -> Objective:
+  """DIAYN on the full observation (no feature engineering): q(z|s) = Cat(MLP(s)).
+
+  ``obs_indices`` does not restrict the discriminator here; it only names the dimensions that
+  evaluation (MI, LGR) and plots look at, as in the paper.
+  """
+  indices = resolve_indices(obs_indices, env, who="diayn_full")
+  objective = _mimax("diayn_full", prior=priors.categorical_prior(num_skills),
+                     posterior="categorical", indices=None, obs_scale=obs_scale,
+                     logits_clip=logits_clip, spectral_norm=spectral_norm,
+                     env_reward_multiplier=env_reward_multiplier, normalize_obs=normalize_obs,
+                     hidden=hidden)
+  return objective._replace(info=_info(**{**objective.info, "eval_indices": indices}))
+
+
+# ------------------------------------------------------------------------------------------------
+# D-min
+
+
+def _default_target(name, target, indices, obs_scale, num_modes) -> Target:
+  if target is None:
+    if len(indices) not in (1, 2):
+      raise ValueError(f"{name}: the default target is a {num_modes}-mode Gaussian in 1 or 2 "
+                       f"dimensions, but obs_indices has {len(indices)}; pass target=")
+    return multimode_gaussian(num_modes, scale=obs_scale, dim=len(indices))
+  if not isinstance(target, Target):
+    raise ValueError(f"{name}: target must be a blx.objectives.Target (multimode_gaussian(...) or "
+                     f"target_from_samples(...)), got {type(target).__name__}")
+  return target
+
+
+def _dmin(name: str, transform: Callable[[jax.Array], jax.Array] | None, *, target, obs_indices,
+          env, obs_scale: float, num_modes: int, include_action: bool, logits_clip: float,
+          spectral_norm: bool, gradient_penalty_weight: float, env_reward_multiplier: float,
+          normalize_obs: bool, balance_data: bool, hidden: Sequence[int]) -> Objective:
+  indices = resolve_indices(obs_indices, env, who=name)
+  if indices is None:
+    raise ValueError(f"{name}: give obs_indices (ints or a name such as 'vel_xy' with env=)")
+  _check_options(name, logits_clip=logits_clip, obs_scale=obs_scale)
+  target = _default_target(name, target, indices, obs_scale, num_modes)
+  if gradient_penalty_weight < 0:
+    raise ValueError(f"{name}: gradient_penalty_weight must be >= 0, got {gradient_penalty_weight}")
+  if gradient_penalty_weight > 0 and not balance_data:
+    raise ValueError(f"{name}: gradient_penalty_weight > 0 interpolates policy and target samples "
+                     "pairwise and needs balance_data=True")
+  expected = len(indices)
+  if not include_action and target.dim != expected:
+    raise ValueError(f"{name}: target samples have dimension {target.dim} but obs_indices has "
+                     f"{expected}")
+  target_samples = jnp.asarray(target.samples, jnp.float32)
+  learned = transform is not None
+  disc = _Disc(1, hidden, spectral_norm, normalize_obs) if learned else None
+
+  def disc_input(obs, action):
+    x = _select(obs, indices)
+    return jnp.concatenate([x, action]) if include_action else x
+
+  def raw_logit(params, x):
+    return disc.apply(params, x)[0]
+
+  def logit(params, x):
+    """The clipped discriminator logit of one input ``x [D]``: D(x) = sigmoid(logit)."""
+    return jnp.clip(raw_logit(params, x), -logits_clip, logits_clip)
+
+  def init(key, obs_size):
+    _check_indices(indices, obs_size, name)
+    return disc.init(key, target.dim) if learned else {}
+
+  if learned:
+    def reward(params, t: Transition):
+      x = disc_input(t.obs, t.action)
+      if x.shape != target_samples.shape[1:]:
+        raise ValueError(f"{name}: the discriminator input has size {x.shape[0]} but the target "
+                         f"samples have {target.dim} (include_action adds the action size)")
+      return transform(logit(params, x)) + env_reward_multiplier * t.env_reward
+  else:
+    offset = _mle_offset(target, len(indices), obs_scale)
+
+    def reward(params, t: Transition):
+      log_p = target.log_prob(disc_input(t.obs, t.action))
+      return dmin.mle_reward(log_p, offset=offset) + env_reward_multiplier * t.env_reward
+
+  def loss(params, batch: Transition, key):
+    if not learned:
+      return jnp.zeros(()), {}
+    x_policy = jax.vmap(disc_input)(batch.obs, batch.action)
+    x_target = target_samples
+    policy_key, target_key, gp_key = jax.random.split(key, 3)
+    if balance_data:
+      m = min(x_policy.shape[0], x_target.shape[0])
+      x_policy = x_policy[jax.random.choice(policy_key, x_policy.shape[0], (m,), replace=False)]
+      x_target = x_target[jax.random.choice(target_key, x_target.shape[0], (m,), replace=False)]
+    # The loss sees the unclipped logit: a clip here would stop the gradient wherever the logit
+    # extrapolates past +-c, and states the policy reaches there could never be corrected (the
+    # original clipped inside its Bernoulli). The clip bounds the reward only.
+    logits_policy = jax.vmap(raw_logit, (None, 0))(params, x_policy)
+    logits_target = jax.vmap(raw_logit, (None, 0))(params, x_target)
+    value = dmin.discriminator_loss(logits_policy, logits_target)
+    metrics = {"loss/disc": value,
+               "disc/policy_prob": jnp.mean(jax.nn.sigmoid(logits_policy)),
+               "disc/target_prob": jnp.mean(jax.nn.sigmoid(logits_target))}
+    if gradient_penalty_weight > 0:
+      penalty = dmin.gradient_penalty(raw_logit, params, x_policy, x_target, gp_key,
+                                      weight=gradient_penalty_weight)
+      metrics["loss/gradient_penalty"] = penalty
+      value = value + penalty
+    return value, metrics
+
+  def post_update(params, batch: Transition):
+    return disc.post_update(params, jax.vmap(disc_input)(batch.obs, batch.action))
+
+  return Objective(
+      init=init, sample_latent=lambda key: jnp.zeros((0,)), reward=reward, loss=loss,
+      latent_size=0, conditions_policy=False, name=name,
+      post_update=post_update if learned and (spectral_norm or normalize_obs) else None,
+      info=_info(family="dmin", obs_indices=indices, obs_scale=float(obs_scale), target=target,
+                 include_action=include_action, logit=logit if learned else None))
+
+
+def _mle_offset(target: Target, dim: int, obs_scale: float) -> float:
+  """-min log p* over the grid {-1, 0, 1}^d * obs_scale and the target samples (Braxlines)."""
+  if target.log_prob is None:
+    raise ValueError("mle: the target has no density (target_from_samples); use multimode_gaussian "
+                     "or a learned D-min objective such as gail")
+  grid = np.array(list(itertools.product((-1.0, 0.0, 1.0), repeat=dim)), np.float32) * obs_scale
+  points = jnp.concatenate([jnp.asarray(grid), jnp.asarray(target.samples, jnp.float32)])
+  return float(-jnp.min(jax.vmap(target.log_prob)(points)))
+
+
+def _dmin_preset(name: str, transform_factory: Callable[[float], Callable] | None,
+                 doc: str) -> Callable[..., Objective]:
+  def preset(*, target: Target | None = None, obs_indices: Indices = None, env: Any = None,
+             obs_scale: float = 5.0, num_modes: int = 2, include_action: bool = False,
+             logits_clip: float = 5.0, spectral_norm: bool = False,
+             gradient_penalty_weight: float = 0.0, env_reward_multiplier: float = 0.0,
+             normalize_obs: bool = False, balance_data: bool = True,
+             hidden: Sequence[int] = (32, 32)) -> Objective:
+    if transform_factory is None and (include_action or spectral_norm or normalize_obs
+                                      or gradient_penalty_weight):
+      raise ValueError("mle: the reward is the target's log-density; include_action, "
+                       "spectral_norm, normalize_obs and gradient_penalty_weight do not apply")
+    transform = transform_factory(logits_clip) if transform_factory else None
+    return _dmin(name, transform, target=target, obs_indices=obs_indices, env=env,
+                 obs_scale=obs_scale, num_modes=num_modes, include_action=include_action,
+                 logits_clip=logits_clip, spectral_norm=spectral_norm,
+                 gradient_penalty_weight=gradient_penalty_weight,
+                 env_reward_multiplier=env_reward_multiplier, normalize_obs=normalize_obs,
+                 balance_data=balance_data, hidden=hidden)
+
+  preset.__name__ = preset.__qualname__ = name
+  preset.__doc__ = doc + """
+
+  Options: ``target`` (default: ``multimode_gaussian(num_modes, scale=obs_scale, dim=len(idx))``),
+  ``obs_indices`` (ints, or names with ``env=``), ``include_action`` (the discriminator also sees
+  a_t; the target samples must then hold [s_idx, a]), ``logits_clip`` c, ``spectral_norm``,
+  ``gradient_penalty_weight``, ``env_reward_multiplier``, ``normalize_obs`` (running statistics of
+  the discriminator input), ``balance_data`` (subsample both sets to the smaller size).
+  """
+  return preset
+
+
+gail = _dmin_preset("gail", lambda c: dmin.gail_reward,
+                    "GAIL: r = -log(1 - D(s)) = softplus(l), non-negative.")
+gail2 = _dmin_preset("gail2", lambda c: lambda l: dmin.gail2_reward(l, offset=c),
+                     "GAIL2: r = log D(s) + c = -softplus(-l) + c.")
+airl = _dmin_preset("airl", lambda c: lambda l: dmin.airl_reward(l, offset=c),
+                    "AIRL: r = log D - log(1 - D) + c = l + c, non-negative for l in [-c, c].")
+fairl = _dmin_preset("fairl", lambda c: lambda l: dmin.fairl_reward(l, offset=c),
+                     "FAIRL: r = -l e^l + c.")
+mle = _dmin_preset("mle", None, "MLE (oracle): r = log p*(s) + offset for a target with a density.")
+
+
+# ------------------------------------------------------------------------------------------------
+# By name
+
+_PRESETS: dict[str, Callable[..., Objective]] = {
+    "task": task, "gcrl": gcrl, "fixed_gcrl": fixed_gcrl, "cdiayn": cdiayn, "diayn": diayn,
+    "diayn_full": diayn_full, "gail": gail, "gail2": gail2, "airl": airl, "fairl": fairl,
+    "mle": mle,
+}
+
+
+def list_objectives() -> list[str]:
+  """The preset names ``make`` accepts."""
+  return sorted(_PRESETS)
+
+
+def options_of(name: str) -> list[str]:
+  """The keyword options of preset ``name``."""
+  return sorted(inspect.signature(_preset(name)).parameters)
+
+
+def _preset(name: str) -> Callable[..., Objective]:
+  if name not in _PRESETS:
+    raise ValueError(f"unknown objective {name!r}; valid objectives are {list_objectives()}")
+  return _PRESETS[name]
+
+
+def make(name: str, **options: Any) -> Objective:
+  """Builds preset ``name`` with ``options``; unknown names and options fail with the valid ones."""
+  fn = _preset(name)
+  valid = inspect.signature(fn).parameters
+  unknown = sorted(set(options) - set(valid))
+  if unknown:
+    raise ValueError(f"objective {name!r}: unknown option(s) {unknown}; valid options are "
+                     f"{sorted(valid)}")
+  return fn(**options)
