@@ -56,6 +56,13 @@ class PPOConfig:
         raise ValueError(f"PPOConfig.{name} must lie in [0, 1], got {getattr(self, name)!r}")
     if self.learning_rate <= 0 or self.clipping_epsilon <= 0:
       raise ValueError("PPOConfig: learning_rate and clipping_epsilon must be positive")
+    for name in ("policy_hidden", "value_hidden"):
+      value = getattr(self, name)
+      if (not isinstance(value, (tuple, list)) or not value
+          or not all(isinstance(v, int) and v > 0 for v in value)):
+        raise ValueError(f"PPOConfig.{name} must be a non-empty sequence of positive ints, e.g. "
+                         f"(32, 32), got {value!r}")
+      object.__setattr__(self, name, tuple(value))
 
   @property
   def num_unrolls(self) -> int:

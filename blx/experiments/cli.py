@@ -1,0 +1,284 @@
+"""The ``blx`` command: ``envs``, ``train``, ``eval``, ``render``, ``sweep``.
+
+Set ``BLX_DEBUG=1`` to see the traceback behind an error line.
+
+Bad input (an unknown env, objective or key, a malformed ``--config``, a missing or incompatible run
+directory) prints one line naming the problem and the valid choices, and exits with status 2.
+"""
+
+from __future__ import annotations
+
+import argparse
+import ast
+import contextlib
+import io
+import json
+import os
+import sys
+import time
+
+__all__ = ["main"]
+
+DEFAULT_ENV, DEFAULT_OBJECTIVE, DEFAULT_SKILLS = "point", "diayn", 4
+
+
+class UsageError(Exception):
+  """Bad input from the command line: one line, exit status 2."""
+
+
+def _parse_value(text: str):
+  try:
+    return ast.literal_eval(text)
+  except (ValueError, SyntaxError):
+    return text  # a bare word such as vel_xy
+
+
+def _parse_pairs(items, flag: str) -> dict:
+  out = {}
+  for item in items or []:
+    key, sep, value = item.partition("=")
+    if not sep or not key:
+      raise UsageError(f"{flag} {item!r}: expected key=value, e.g. {flag} learning_rate=1e-3")
+    out[key.strip()] = _parse_value(value.strip())
+  return out
+
+
+def _parse_seeds(text: str) -> tuple[int, ...]:
+  try:
+    seeds = tuple(int(s) for s in text.split(",") if s.strip())
+  except ValueError:
+    raise UsageError(f"--seeds {text!r}: expected comma-separated ints, e.g. --seeds 0,1,2") from None
+  if not seeds:
+    raise UsageError("--seeds: give at least one seed")
+  return seeds
+
+
+class _Progress:
+  """A live progress line: steps, steps/s, ETA and the latest evaluation metrics."""
+
+  KEYS = ("eval/episode_reward", "disc/accuracy", "eval/mi", "eval/lgr", "eval/energy_distance")
+
+  def __init__(self, stream=sys.stderr):
+    self.stream = stream
+    self.tty = stream.isatty()
+
+  def __call__(self, row: dict) -> None:
+    import numpy as np
+    frac = row["env_steps"] / max(row["total_steps"], 1)
+    bar = "#" * int(24 * frac) + "." * (24 - int(24 * frac))
+    evals = "  ".join(f"{k.split('/', 1)[1]} {np.mean(row[k]):.3g}" for k in self.KEYS if k in row)
+    line = (f"[{bar}] {row['env_steps']:,.0f}/{row['total_steps']:,.0f} steps  "
+            f"{row['steps_per_second']:,.0f}/s  ETA {row['eta_seconds']:.0f}s  {evals}")
+    end = "\n" if (not self.tty or frac >= 1) else ""
+    self.stream.write(("\r\x1b[2K" if self.tty else "") + line + end)
+    self.stream.flush()
+
+
+# ------------------------------------------------------------------------------------------------
+
+
+def cmd_envs(args) -> int:
+  from blx import envs
+  if not args.name:
+    print("envs:       " + ", ".join(envs.list_envs()))
+    print("components: " + ", ".join(envs.list_components()))
+    return 0
+  if args.name not in envs.list_envs():
+    raise UsageError(f"unknown env {args.name!r}; valid envs are {envs.list_envs()}")
+  env = envs.create(args.name)
+  print(f"{args.name}: observation size {env.observation_size}, action size {env.action_size}")
+  print("observation layout:")
+  for name, sl in env.obs_layout.items():
+    print(f"  [{sl.start:3d}:{sl.stop:3d}]  {name}")
+  print("reward terms: " + (", ".join(env.reward_terms) or "(none)"))
+  print("named indices (for --obs-indices):")
+  for name, idx in env.named_indices.items():
+    if "/" not in name:
+      print(f"  {name:10s} {list(idx)}")
+  params = envs.env_params(args.name)
+  if params:
+    print("env params: " + ", ".join(f"{k}={v!r}" for k, v in params.items()))
+  return 0
+
+
+def _spec_from_args(args):
+  from blx.experiments import runs
+  options = _parse_pairs(args.option, "--option")
+  if args.num_skills is not None:
+    options["num_skills"] = args.num_skills
+  elif args.objective in ("diayn", "diayn_full") and args.env == DEFAULT_ENV:
+    options.setdefault("num_skills", DEFAULT_SKILLS)
+  if args.obs_indices is not None:
+    options["obs_indices"] = _parse_value(args.obs_indices)
+  ppo = _parse_pairs(args.config, "--config")
+  if args.steps is not None:
+    ppo["num_timesteps"] = args.steps
+  return runs.RunSpec(env=args.env, objective=args.objective, objective_options=options,
+                      ppo=ppo, seeds=_parse_seeds(args.seeds),
+                      env_params=_parse_pairs(args.env_param, "--env-param"))
+
+
+def cmd_train(args) -> int:
+  from blx.experiments import plots, runs
+  spec = _spec_from_args(args)
+  runs.build(spec)  # validate everything before creating a directory
+  out = args.out or os.path.join("runs", f"{spec.env}_{spec.objective}_{time.strftime('%Y%m%d-%H%M%S')}")
+  print(f"[blx] training {spec.objective} on {spec.env}, seeds {list(spec.seeds)} -> {out}",
+        file=sys.stderr)
+  try:
+    run = runs.train_run(spec, out, resume=args.resume, progress=_Progress(),
+                         eval_metrics=args.eval_metrics)
+  except KeyboardInterrupt:
+    print(f"[blx] interrupted: resume with  blx train --out {out} --resume  (and the same "
+          "--env/--objective/--seeds)", file=sys.stderr)
+    return 130
+  result = runs.write_eval(run)
+  written = plots.write_all(run, run.meta.get("history", []))
+  _print_summary(result["summary"])
+  print(f"[blx] run directory: {out} (config.json, metrics.csv, eval.json, checkpoint/, "
+        + ", ".join(os.path.relpath(p, out) for p in written) + ")", file=sys.stderr)
+  return 0
+
+
+def _print_summary(summary: dict) -> None:
+  width = max((len(k) for k in summary), default=10)
+  for key, s in summary.items():
+    print(f"{key:{width}s}  {s['mean']:10.4f} ± {s['std']:.4f}  (n={s['n']})")
+
+
+def cmd_eval(args) -> int:
+  from blx.experiments import runs
+  run = runs.load_run(args.dir)
+  result = runs.write_eval(run)
+  if args.json:
+    print(json.dumps(result, indent=2))
+  else:
+    print(f"{run.spec.objective} on {run.spec.env}, seeds {list(run.spec.seeds)}")
+    _print_summary(result["summary"])
+  return 0
+
+
+def cmd_render(args) -> int:
+  import jax
+  import jax.numpy as jnp
+  import numpy as np
+  from blx import metrics
+  from blx.experiments import render, runs
+  render.ensure_headless_gl()
+  run = runs.load_run(args.dir)
+  if not 0 <= args.seed_index < len(run.spec.seeds):
+    raise UsageError(f"--seed-index {args.seed_index}: the run has {len(run.spec.seeds)} seed(s)")
+  params = jax.tree.map(lambda x: x[args.seed_index], run.params)
+  key = jax.random.PRNGKey(0)
+  if run.objective.info.get("family") == "mimax":
+    latents = metrics.latents_for_evaluation(run.objective, key, 4)
+    chosen = list(range(latents.shape[0]))
+    if args.skills:
+      chosen = [int(s) for s in args.skills.split(",")]
+      bad = [s for s in chosen if not 0 <= s < latents.shape[0]]
+      if bad:
+        raise UsageError(f"--skills {bad}: valid skills are 0..{latents.shape[0] - 1}")
+    latents = latents[np.asarray(chosen)]
+  else:
+    if args.skills:
+      raise UsageError(f"--skills: {run.spec.objective} has no skills")
+    latents = jnp.zeros((1, run.objective.latent_size))
+  length = run.config.eval_episode_length or run.config.episode_length
+  steps = min(args.steps or length, length) // run.config.action_repeat
+  qpos = np.asarray(render.rollout_qpos(run, params, latents, key, steps=steps))
+  frames = np.concatenate([render.render_frames(run.env.mj_model, q, width=args.width,
+                                                height=args.height) for q in qpos])
+  out = args.out or os.path.join(args.dir, "video.mp4")
+  fps = 1.0 / (run.env.dt * run.config.action_repeat)
+  render.write_video(out, frames, fps=min(fps, 60.0))
+  print(f"[blx] wrote {out}: {len(frames)} frames of {args.width}x{args.height}, "
+        f"{latents.shape[0]} episode(s)", file=sys.stderr)
+  return 0
+
+
+def cmd_sweep(args) -> int:
+  from blx.experiments import sweep
+  spec = sweep.load_spec(args.spec)
+  out = args.out or spec.get("out") or os.path.join(
+      "sweeps", spec.get("name") or os.path.splitext(os.path.basename(args.spec))[0])
+  rows = sweep.run_sweep(spec, out, progress=_Progress(), eval_metrics=args.eval_metrics)
+  with open(os.path.join(out, "summary.md")) as f:
+    print(f.read())
+  print(f"[blx] {len(rows)} runs; tables in {out}/summary.{{md,csv,tex}}", file=sys.stderr)
+  return 0
+
+
+def _parser() -> argparse.ArgumentParser:
+  parser = argparse.ArgumentParser(prog="blx", description="Compose, train, evaluate, render and "
+                                   "sweep reward-free behaviour on MuJoCo MJX.")
+  sub = parser.add_subparsers(dest="command", required=True)
+  p = sub.add_parser("envs", help="list envs and components, or describe one env")
+  p.add_argument("name", nargs="?")
+  p.set_defaults(fn=cmd_envs)
+
+  p = sub.add_parser("train", help="train an objective on an env into a run directory")
+  p.add_argument("--env", default=DEFAULT_ENV)
+  p.add_argument("--objective", default=DEFAULT_OBJECTIVE)
+  p.add_argument("--num-skills", type=int, default=None)
+  p.add_argument("--obs-indices", default=None,
+                 help="a name such as vel_xy (see `blx envs ENV`) or a list such as [13,14]")
+  p.add_argument("--steps", type=int, default=None, help="env steps (default: the env's PPO row)")
+  p.add_argument("--seeds", default="0", help="comma-separated, trained in one vmapped program")
+  p.add_argument("--config", action="append", metavar="KEY=VALUE", help="a PPOConfig field")
+  p.add_argument("--option", action="append", metavar="KEY=VALUE", help="an objective option")
+  p.add_argument("--env-param", action="append", metavar="KEY=VALUE", help="an env parameter")
+  p.add_argument("--out", default=None, help="run directory (default runs/ENV_OBJ_TIME)")
+  p.add_argument("--resume", action="store_true", help="continue the run in --out")
+  p.add_argument("--eval-metrics", action="store_true",
+                 help="log MI / LGR / energy distance at every evaluation (slower)")
+  p.set_defaults(fn=cmd_train)
+
+  p = sub.add_parser("eval", help="the metrics of a trained run")
+  p.add_argument("dir")
+  p.add_argument("--json", action="store_true")
+  p.set_defaults(fn=cmd_eval)
+
+  p = sub.add_parser("render", help="a video of rollouts (one per skill for MI-max)")
+  p.add_argument("dir")
+  p.add_argument("--skills", default=None, help="comma-separated skill numbers")
+  p.add_argument("--out", default=None, help="default DIR/video.mp4")
+  p.add_argument("--seed-index", type=int, default=0)
+  p.add_argument("--steps", type=int, default=None, help="env steps per episode")
+  p.add_argument("--width", type=int, default=320)
+  p.add_argument("--height", type=int, default=240)
+  p.set_defaults(fn=cmd_render)
+
+  p = sub.add_parser("sweep", help="a grid x seeds from a JSON/YAML/Python spec, with tables")
+  p.add_argument("spec")
+  p.add_argument("--out", default=None)
+  p.add_argument("--eval-metrics", action="store_true")
+  p.set_defaults(fn=cmd_sweep)
+  return parser
+
+
+def _quiet_imports(command: str) -> None:
+  """Sets up what must precede the first mujoco import, and keeps mjx's optional-backend notice
+  ("Failed to import warp", printed to stdout) out of the command's output (e.g. ``--json``)."""
+  if command == "render":
+    from blx.experiments import render
+    render.ensure_headless_gl()
+  with contextlib.redirect_stdout(io.StringIO()):
+    import mujoco.mjx  # noqa: F401
+
+
+def main(argv=None) -> int:
+  args = _parser().parse_args(argv)
+  _quiet_imports(args.command)
+  from blx.experiments.runs import RunError
+  try:
+    return args.fn(args)
+  except (UsageError, RunError, ValueError) as e:
+    if os.environ.get("BLX_DEBUG"):
+      raise
+    message = str(e).splitlines()[0] if str(e) else type(e).__name__
+    print(f"blx {args.command}: error: {message}", file=sys.stderr)
+    return 2
+
+
+if __name__ == "__main__":
+  sys.exit(main())

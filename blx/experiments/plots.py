@@ -1,0 +1,194 @@
+"""The plots of a run directory (matplotlib, headless): training curves, skills, D-min density and
+discriminator maps."""
+
+from __future__ import annotations
+
+import os
+import re
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from blx import metrics
+
+__all__ = ["training_curves", "skills", "density", "discriminator", "write_all"]
+
+CURVE_PATTERNS = (r"^eval/episode_reward$", r"^eval/episode_score$", r"^eval/mi$",
+                  r"^eval/entropy$", r"^eval/lgr$", r"^eval/energy_distance$", r"^loss/disc$",
+                  r"^disc/accuracy$", r"^loss/policy$", r"^policy/entropy$")
+
+
+def _pyplot():
+  import matplotlib
+  matplotlib.use("Agg")
+  import matplotlib.pyplot as plt
+  return plt
+
+
+def training_curves(history: list[dict], path: str) -> list[str]:
+  """A grid of curves (mean over seeds, band = min..max) against env steps; returns the keys."""
+  plt = _pyplot()
+  keys = [k for p in CURVE_PATTERNS for k in (history[0] if history else {}) if re.match(p, k)]
+  keys = list(dict.fromkeys(keys))
+  cols = min(3, max(1, len(keys)))
+  rows = max(1, -(-len(keys) // cols))
+  fig, axes = plt.subplots(rows, cols, figsize=(4.2 * cols, 3.0 * rows), squeeze=False)
+  steps = np.array([row["env_steps"] for row in history])
+  for ax, key in zip(axes.flat, keys):
+    values = np.array([np.atleast_1d(row[key]) for row in history], np.float64)  # [E, seeds]
+    ax.plot(steps, values.mean(1), color="C0")
+    if values.shape[1] > 1:
+      ax.fill_between(steps, values.min(1), values.max(1), color="C0", alpha=0.2)
+    ax.set_title(key, fontsize=9)
+    ax.set_xlabel("env steps", fontsize=8)
+    ax.tick_params(labelsize=7)
+  for ax in list(axes.flat)[len(keys):]:
+    ax.axis("off")
+  fig.tight_layout()
+  fig.savefig(path, dpi=90)
+  plt.close(fig)
+  return keys
+
+
+def skills(states: np.ndarray, path: str, *, labels: list[str], scale: float,
+           title: str = "") -> None:
+  """Trajectories in the feature space, one colour per skill: ``states [L, M, T, D]``, D >= 1
+  (pairs of dimensions side by side; a 1-D feature is plotted against time)."""
+  plt = _pyplot()
+  num, _, steps, dim = states.shape
+  pairs = [(i, i + 1) for i in range(0, dim - 1, 2)] or [(0, None)]
+  fig, axes = plt.subplots(1, len(pairs), figsize=(4.6 * len(pairs), 4.2), squeeze=False)
+  colours = plt.get_cmap("hsv")(np.linspace(0, 1, num, endpoint=False))
+  for ax, (a, b) in zip(axes.flat, pairs):
+    for k in range(num):
+      for m in range(states.shape[1]):
+        x = states[k, m, :, a]
+        y = states[k, m, :, b] if b is not None else x
+        x = x if b is not None else np.arange(steps)
+        ax.plot(x, y, color=colours[k], alpha=0.5, lw=1, label=f"skill {k}" if m == 0 else None)
+        ax.scatter(x[-1:], y[-1:], color=colours[k], s=12)
+    ax.set_xlabel(labels[a] if b is not None else "step")
+    ax.set_ylabel(labels[b] if b is not None else labels[a])
+    if b is not None:
+      ax.set_xlim(-scale * 1.5, scale * 1.5)
+      ax.set_ylim(-scale * 1.5, scale * 1.5)
+      ax.set_aspect("equal")
+  if num <= 12:
+    axes.flat[0].legend(fontsize=7, loc="best")
+  fig.suptitle(title, fontsize=10)
+  fig.tight_layout()
+  fig.savefig(path, dpi=90)
+  plt.close(fig)
+
+
+def density(policy_x: np.ndarray, target_x: np.ndarray, path: str, *, labels: list[str],
+            scale: float, title: str = "") -> None:
+  """Policy (red) vs target (blue) samples in the first two feature dims (or histograms in 1-D)."""
+  plt = _pyplot()
+  fig, ax = plt.subplots(figsize=(4.6, 4.2))
+  if policy_x.shape[1] >= 2:
+    ax.scatter(target_x[:, 0], target_x[:, 1], s=6, c="tab:blue", alpha=0.4, label="target")
+    ax.scatter(policy_x[:, 0], policy_x[:, 1], s=6, c="tab:red", alpha=0.4, label="policy")
+    ax.set_xlabel(labels[0])
+    ax.set_ylabel(labels[1])
+    ax.set_xlim(-scale, scale)
+    ax.set_ylim(-scale, scale)
+    ax.set_aspect("equal")
+  else:
+    bins = np.linspace(-scale, scale, 60)
+    ax.hist(target_x[:, 0], bins, color="tab:blue", alpha=0.5, density=True, label="target")
+    ax.hist(policy_x[:, 0], bins, color="tab:red", alpha=0.5, density=True, label="policy")
+    ax.set_xlabel(labels[0])
+  ax.legend(fontsize=8)
+  ax.set_title(title, fontsize=10)
+  fig.tight_layout()
+  fig.savefig(path, dpi=90)
+  plt.close(fig)
+
+
+def discriminator(logit_fn, params, path: str, *, dim: int, labels: list[str], scale: float,
+                  grid: int = 25, title: str = "") -> None:
+  """D(x) = sigmoid(logit) on a ``grid x grid`` grid over [-scale, scale]^2 (red < 0.5 < blue);
+  other input dims are 0."""
+  plt = _pyplot()
+  ticks = np.linspace(-scale, scale, grid)
+  if dim >= 2:
+    xx, yy = np.meshgrid(ticks, ticks)
+    pts = np.zeros((grid * grid, dim), np.float32)
+    pts[:, 0], pts[:, 1] = xx.ravel(), yy.ravel()
+  else:
+    pts = ticks[:, None].astype(np.float32)
+  d = np.asarray(jax.nn.sigmoid(jax.vmap(lambda x: logit_fn(params, x))(jnp.asarray(pts))))
+  fig, ax = plt.subplots(figsize=(4.8, 4.2))
+  if dim >= 2:
+    im = ax.imshow(d.reshape(grid, grid), origin="lower", extent=(-scale, scale, -scale, scale),
+                   cmap="RdBu", vmin=0, vmax=1)
+    ax.set_xlabel(labels[0])
+    ax.set_ylabel(labels[1])
+    fig.colorbar(im, ax=ax, label="D(x) = P(target)")
+  else:
+    ax.plot(ticks, d)
+    ax.set_xlabel(labels[0])
+    ax.set_ylabel("D(x)")
+  ax.set_title(title, fontsize=10)
+  fig.tight_layout()
+  fig.savefig(path, dpi=90)
+  plt.close(fig)
+
+
+def feature_labels(env, indices) -> list[str]:
+  """Readable names of observation indices from the env's layout (``agent1/root_vel[0]``)."""
+  names = {}
+  for name, sl in env.obs_layout.items():
+    for j, i in enumerate(range(sl.start, sl.stop)):
+      names[i] = f"{name}#{j}"
+  return [names.get(int(i), f"obs[{int(i)}]") for i in indices]
+
+
+def write_all(run, history: list[dict], *, seed_index: int = 0, key_seed: int = 0) -> list[str]:
+  """Writes every plot of the run directory for one seed; returns the paths written."""
+  out_dir = os.path.join(run.directory, "plots")
+  os.makedirs(out_dir, exist_ok=True)
+  written = []
+  if history:
+    path = os.path.join(out_dir, "training_curves.png")
+    training_curves(history, path)
+    written.append(path)
+  if run.params is None:
+    return written
+  params = jax.tree.map(lambda x: x[seed_index], run.params)
+  info = run.objective.info
+  family = info.get("family")
+  length = run.config.eval_episode_length or run.config.episode_length
+  key = jax.random.PRNGKey(key_seed)
+  name = f"{run.objective.name} on {run.spec.env} (seed {run.spec.seeds[seed_index]})"
+  if family == "mimax":
+    indices = np.asarray(metrics.eval_indices(run.objective))
+    latents = metrics.latents_for_evaluation(run.objective, key, 8)
+    states = jax.jit(lambda p, z, k: metrics.rollout(
+        run.env, run.policy, p, z, k, episodes_per_latent=3, episode_length=length,
+        action_repeat=run.config.action_repeat))(params, latents, key)
+    path = os.path.join(out_dir, "skills.png")
+    skills(np.asarray(states[..., indices]), path, labels=feature_labels(run.env, indices),
+           scale=info["obs_scale"], title=name)
+    written.append(path)
+  elif family == "dmin":
+    indices = np.asarray(info["obs_indices"])
+    states = jax.jit(lambda p, k: metrics.rollout(
+        run.env, run.policy, p, jnp.zeros((1, 0)), k, episodes_per_latent=10,
+        episode_length=length, action_repeat=run.config.action_repeat,
+        conditions_policy=False))(params, key)
+    last = max(1, length // 2)
+    x = np.asarray(states[0, :, -last:][..., indices]).reshape(-1, len(indices))
+    target = np.asarray(info["target"].samples)[:, :len(indices)]
+    labels = feature_labels(run.env, indices)
+    path = os.path.join(out_dir, "density.png")
+    density(x, target, path, labels=labels, scale=info["obs_scale"], title=name)
+    written.append(path)
+    if info.get("logit") is not None and not info.get("include_action"):
+      path = os.path.join(out_dir, "discriminator.png")
+      discriminator(info["logit"], params["objective"], path, dim=len(indices), labels=labels,
+                    scale=info["obs_scale"], title=name)
+      written.append(path)
+  return written

@@ -1,0 +1,83 @@
+"""Videos of trained policies with MuJoCo's offscreen renderer (headless: EGL, else OSMesa)."""
+
+from __future__ import annotations
+
+import os
+
+__all__ = ["ensure_headless_gl", "rollout_qpos", "render_frames", "write_video"]
+
+
+def ensure_headless_gl() -> None:
+  """Picks a headless OpenGL backend before mujoco's renderer loads (EGL unless one is set)."""
+  os.environ.setdefault("MUJOCO_GL", "egl")
+  if os.environ["MUJOCO_GL"] in ("egl", "osmesa"):
+    os.environ.setdefault("PYOPENGL_PLATFORM", os.environ["MUJOCO_GL"])
+
+
+def rollout_qpos(run, params, latents, key, *, steps: int):
+  """Deterministic episodes, one per latent ``[L, Z]``: ``qpos [L, T, nq]`` (held after a
+  termination), from the run's env with its episode length and action repeat."""
+  import jax
+  import jax.numpy as jnp
+  from blx import envs
+
+  env = envs.episode(envs.action_repeat(envs.unwrap(run.env), run.config.action_repeat),
+                     steps * run.config.action_repeat)
+  conditions = run.objective.conditions_policy
+  n = latents.shape[0]
+
+  @jax.jit
+  def go(params, latents, key):
+    state = jax.vmap(env.reset)(jax.random.split(key, n))
+
+    def one(carry, _):
+      state, alive, held = carry
+      action = run.policy(params, state.obs, latents if conditions else None)
+      nxt = jax.vmap(env.step)(state, action)
+      qpos = jnp.where(alive[:, None] > 0, nxt.data.qpos, held)
+      return (nxt, alive * (1.0 - nxt.done), qpos), qpos
+
+    first = state.data.qpos
+    _, qpos = jax.lax.scan(one, (state, jnp.ones(n), first), None, length=steps)
+    return jnp.concatenate([first[None], qpos], 0).swapaxes(0, 1)
+
+  return go(params, latents, key)
+
+
+def render_frames(mj_model, qpos, *, width: int = 320, height: int = 240):
+  """RGB frames ``[T, H, W, 3]`` (uint8) of one trajectory ``qpos [T, nq]``, the camera tracking
+  the first body."""
+  ensure_headless_gl()
+  import mujoco
+  import numpy as np
+
+  data = mujoco.MjData(mj_model)
+  camera = mujoco.MjvCamera()
+  camera.type = mujoco.mjtCamera.mjCAMERA_TRACKING
+  camera.trackbodyid = 1 if mj_model.nbody > 1 else 0
+  camera.distance = max(3.0, 2.5 * float(mj_model.stat.extent))
+  camera.elevation = -35.0
+  camera.azimuth = 90.0
+  frames = []
+  try:
+    renderer = mujoco.Renderer(mj_model, height, width)
+  except Exception as e:  # no usable OpenGL: say what to install
+    raise RuntimeError(
+        f"blx render: MuJoCo could not open a headless OpenGL context with MUJOCO_GL="
+        f"{os.environ.get('MUJOCO_GL')} ({e}). Install EGL (apt install libegl1 libgl1-mesa-dri) "
+        "or OSMesa (apt install libosmesa6) and set MUJOCO_GL=egl or osmesa") from None
+  with renderer:
+    for q in np.asarray(qpos):
+      data.qpos[:] = q
+      mujoco.mj_forward(mj_model, data)
+      renderer.update_scene(data, camera)
+      frames.append(renderer.render().copy())
+  return np.stack(frames)
+
+
+def write_video(path: str, frames, *, fps: float) -> None:
+  """Writes ``frames [T, H, W, 3]`` as MP4 (H.264 through imageio-ffmpeg)."""
+  import imageio.v2 as imageio
+  tmp = path + ".tmp.mp4"
+  imageio.mimwrite(tmp, list(frames), fps=fps, macro_block_size=1)
+  os.replace(tmp, path)

@@ -1,0 +1,270 @@
+"""Run directories: what a training run writes, and how to rebuild everything from one.
+
+A run directory holds:
+
+* ``config.json``: everything needed to rebuild the run (format version, env name, params and the
+  full desc, objective name and options, PPO config, seeds, evaluation settings);
+* ``checkpoint/``: the training state of every seed (``blx.training.checkpoint``);
+* ``metrics.csv``: one row per evaluation and seed;
+* ``eval.json``: the final metrics of ``blx eval``;
+* ``plots/``: ``training_curves.png``, and ``skills.png`` (MI-max) or ``density.png`` and
+  ``discriminator.png`` (D-min);
+* ``video.mp4`` once rendered.
+"""
+
+from __future__ import annotations
+
+import csv
+import dataclasses
+import json
+import os
+from typing import Any, NamedTuple
+
+import jax
+import numpy as np
+
+from blx import envs, metrics, objectives, training
+from blx.training import checkpoint
+
+__all__ = ["FORMAT_VERSION", "RunSpec", "Run", "RunError", "build", "load_run", "write_config",
+           "write_metrics_csv", "default_obs_indices", "evaluator_for", "evaluate_run", "summarise",
+           "read_spec", "train_run", "write_eval"]
+
+FORMAT_VERSION = 1
+
+
+class RunError(ValueError):
+  """A run directory is missing, incomplete or from an incompatible version."""
+
+
+@dataclasses.dataclass(frozen=True)
+class RunSpec:
+  """What defines a run; ``config.json`` is this, serialised."""
+
+  env: str
+  objective: str
+  objective_options: dict
+  ppo: dict
+  seeds: tuple[int, ...] = (0,)
+  env_params: dict = dataclasses.field(default_factory=dict)
+  desc: dict | None = None
+
+
+class Run(NamedTuple):
+  """A run rebuilt from its directory (``load_run``): everything to evaluate, plot and render.
+
+  ``params`` has a leading seed axis (``{"normalizer", "policy", "value", "objective"}``);
+  ``policy(params_of_one_seed, obs, z=None)`` is the deterministic policy.
+  """
+
+  directory: str
+  spec: RunSpec
+  env: Any
+  objective: objectives.Objective
+  config: training.PPOConfig
+  params: dict | None
+  policy: Any
+  meta: dict
+
+
+def default_obs_indices(env_name: str) -> str:
+  """The feature space reward-free runs use by default: xy position for the point mass (it has no
+  gait to speak of), xy velocity (the paper's "vel") for every body."""
+  return "pos_xy" if env_name.split("_")[0] == "point" else "vel"
+
+
+def build(spec: RunSpec):
+  """``(env, objective, config)`` for a spec; errors name the bad choice and the valid ones."""
+  if spec.env not in envs.list_envs() and spec.desc is None:
+    raise ValueError(f"unknown env {spec.env!r}; valid envs are {envs.list_envs()}")
+  if spec.desc is not None:
+    env = envs.create(desc=spec.desc)
+  else:
+    env = envs.create(spec.env, **spec.env_params)
+  options = dict(spec.objective_options)
+  if spec.objective != "task":
+    options.setdefault("obs_indices", default_obs_indices(spec.env))
+    options["env"] = env
+  objective = objectives.make(spec.objective, **options)
+  config = training.ppo_defaults(spec.env).replace(**spec.ppo)
+  return env, objective, config
+
+
+def write_config(directory: str, spec: RunSpec, env) -> None:
+  os.makedirs(directory, exist_ok=True)
+  data = {"format_version": FORMAT_VERSION, "env": spec.env, "env_params": spec.env_params,
+          "desc": env.desc, "objective": spec.objective,
+          "objective_options": spec.objective_options,
+          "ppo": spec.ppo, "seeds": list(spec.seeds)}
+  tmp = os.path.join(directory, "config.json.tmp")
+  with open(tmp, "w") as f:
+    json.dump(data, f, indent=2, default=_json_default)
+  os.replace(tmp, os.path.join(directory, "config.json"))
+
+
+def _json_default(x):
+  if isinstance(x, (np.ndarray, jax.Array)):
+    return np.asarray(x).tolist()
+  if isinstance(x, (np.integer, np.floating)):
+    return x.item()
+  raise TypeError(f"cannot write {type(x).__name__} to config.json")
+
+
+def read_spec(directory: str) -> RunSpec:
+  path = os.path.join(directory, "config.json")
+  if not os.path.isdir(directory):
+    raise RunError(f"no run directory at {directory!r}")
+  if not os.path.exists(path):
+    raise RunError(f"{directory!r} is not a blx run directory (no config.json)")
+  try:
+    with open(path) as f:
+      data = json.load(f)
+  except (OSError, json.JSONDecodeError) as e:
+    raise RunError(f"{path}: unreadable config.json ({e})") from None
+  version = data.get("format_version")
+  if version != FORMAT_VERSION:
+    raise RunError(f"{directory!r} was written by run format {version!r}; this blx reads format "
+                   f"{FORMAT_VERSION}: retrain it with this version")
+  try:
+    return RunSpec(env=data["env"], objective=data["objective"],
+                   objective_options=data["objective_options"], ppo=data["ppo"],
+                   seeds=tuple(data["seeds"]), env_params=data.get("env_params", {}),
+                   desc=data.get("desc"))
+  except KeyError as e:
+    raise RunError(f"{path}: missing key {e}") from None
+
+
+def load_run(directory: str, *, need_checkpoint: bool = True) -> Run:
+  """Rebuilds env, objective, config and the trained parameters from a run directory alone."""
+  spec = read_spec(directory)
+  env, objective, config = build(spec)
+  trainer = training.make_trainer(env, objective, config)
+  ckpt = os.path.join(directory, "checkpoint")
+  params, meta = None, {}
+  if checkpoint.exists(ckpt):
+    keys = jax.numpy.stack([jax.random.PRNGKey(s) for s in spec.seeds])
+    like = jax.eval_shape(jax.vmap(trainer.init), keys)
+    try:
+      state, meta = checkpoint.restore(ckpt, like)
+    except Exception as e:  # a checkpoint from another config or version
+      raise RunError(f"{ckpt}: the checkpoint does not match config.json ({e})") from None
+    params = {"normalizer": state.normalizer, "policy": state.params.policy,
+              "value": state.params.value, "objective": state.params.objective}
+  elif need_checkpoint:
+    raise RunError(f"{directory!r} has no checkpoint yet (was training interrupted before the "
+                   "first evaluation?)")
+  return Run(directory, spec, env, objective, config, params, trainer.policy, meta)
+
+
+def write_metrics_csv(path: str, history: list[dict], seeds) -> None:
+  """One row per evaluation and seed; scalar columns only."""
+  rows = []
+  for row in history:
+    for i, seed in enumerate(seeds):
+      out = {"seed": seed}
+      for k, v in row.items():
+        if isinstance(v, list):
+          if i < len(v) and not isinstance(v[i], list):
+            out[k] = v[i]
+        elif isinstance(v, (int, float)):
+          out[k] = v
+      rows.append(out)
+  columns = list(dict.fromkeys(k for r in rows for k in r))
+  tmp = path + ".tmp"
+  with open(tmp, "w", newline="") as f:
+    writer = csv.DictWriter(f, columns)
+    writer.writeheader()
+    writer.writerows(rows)
+  os.replace(tmp, path)
+
+
+def evaluator_for(env, objective, config: training.PPOConfig, *, quick: bool = False):
+  """The paper's evaluator for the objective's family (None for task RL), sized to the episode."""
+  family = objective.info.get("family")
+  length = config.eval_episode_length or config.episode_length
+  last = min(500, max(1, length // 2))
+  common = dict(episode_length=length, action_repeat=config.action_repeat, last_steps=last)
+  if family == "mimax":
+    n = 4 if quick else 10
+    return metrics.mimax_evaluator(env, objective, num_latents=n,
+                                                episodes_per_latent=n, num_goals=n, **common)
+  if family == "dmin":
+    return metrics.dmin_evaluator(env, objective, num_episodes=4 if quick else 10,
+                                               every=1 if length < 200 else 10, **common)
+  return None
+
+
+def evaluate_run(run: Run, *, key_seed: int = 0) -> dict[str, list[float]]:
+  """The final metrics of every seed: MI-max -> MI, H(s), LGR, coverage; D-min -> energy
+  distance; always the episode reward and score of deterministic episodes."""
+  trainer = training.make_trainer(run.env, run.objective, run.config)
+  keys = jax.random.split(jax.random.PRNGKey(key_seed), len(run.spec.seeds))
+  results: dict[str, list[float]] = {}
+  evaluator = evaluator_for(run.env, run.objective, run.config)
+
+  def one(params, key):
+    state_like = _state_for_eval(trainer, params)
+    out = {k: v for k, v in trainer.evaluate(state_like, key).items()
+           if k in ("eval/episode_reward", "eval/episode_score", "eval/episode_length")}
+    if evaluator is not None:
+      out.update(evaluator(trainer.policy, params, key))
+    return out
+
+  values = jax.jit(jax.vmap(one))(run.params, keys)
+  for k, v in values.items():
+    results[k] = [float(x) for x in np.asarray(v)]
+  return results
+
+
+def _state_for_eval(trainer, params):
+  """A TrainState-shaped object holding what ``trainer.evaluate`` reads."""
+  from blx.training.ppo import Params, TrainState
+  return TrainState(params=Params(policy=params["policy"], value=params["value"],
+                                  objective=params["objective"]),
+                    opt_state=None, normalizer=params["normalizer"], env_state=None, z=None,
+                    key=None, env_steps=None, iteration=None)
+
+
+def summarise(values: dict[str, list[float]]) -> dict[str, dict[str, float]]:
+  """mean and std (population, as numpy) over seeds of every metric."""
+  return {k: {"mean": float(np.mean(v)), "std": float(np.std(v)), "n": len(v)}
+          for k, v in values.items()}
+
+
+def train_run(spec: RunSpec, directory: str, *, resume: bool = False, progress=True,
+              eval_metrics: bool = False) -> Run:
+  """Trains ``spec`` into ``directory`` (config, checkpoint, metrics.csv, eval.json, plots).
+
+  An existing run directory is only continued with ``resume=True``; it is never overwritten.
+  """
+  env, objective, config = build(spec)
+  exists = os.path.exists(os.path.join(directory, "config.json"))
+  if exists and not resume:
+    raise RunError(f"{directory!r} already holds a run; pass --resume to continue it or choose "
+                   "another --out")
+  if exists:
+    old = read_spec(directory)
+    if (old.env, old.objective, list(old.seeds)) != (spec.env, spec.objective, list(spec.seeds)):
+      raise RunError(f"{directory!r} holds a run of {old.objective} on {old.env} with seeds "
+                     f"{list(old.seeds)}; resume it with the same settings")
+  write_config(directory, spec, env)
+  evaluator = evaluator_for(env, objective, config, quick=True) if eval_metrics else None
+  result = training.train(env, objective, config, seeds=spec.seeds, progress=progress,
+                          checkpoint_dir=os.path.join(directory, "checkpoint"), resume=resume,
+                          evaluate=evaluator)
+  write_metrics_csv(os.path.join(directory, "metrics.csv"), result.metrics, spec.seeds)
+  run = Run(directory, spec, env, objective, config, result.params, result.policy,
+            {"history": result.metrics})
+  return run
+
+
+def write_eval(run: Run) -> dict:
+  """Evaluates every seed, writes ``eval.json`` (per seed and mean/std) and returns it."""
+  values = evaluate_run(run)
+  out = {"per_seed": values, "summary": summarise(values), "seeds": list(run.spec.seeds),
+         "objective": run.spec.objective, "env": run.spec.env}
+  path = os.path.join(run.directory, "eval.json")
+  with open(path + ".tmp", "w") as f:
+    json.dump(out, f, indent=2)
+  os.replace(path + ".tmp", path)
+  return out

@@ -1,0 +1,183 @@
+"""Sweeps: a grid (Cartesian product of lists) x seeds, one run directory per grid point, and an
+aggregate table (mean +- std over seeds) as Markdown, CSV and LaTeX, shaped like the paper's
+Tables 3 and 4.
+
+A spec is a dict (from JSON, YAML, or a Python file defining ``SPEC``)::
+
+    {"name": "mimax_point", "env": "point", "objective": ["diayn", "gcrl"], "seeds": [0, 1],
+     "steps": 100000, "config": {"num_envs": 64}, "options": {"num_skills": 4}}
+
+Lists at the top level (``env``, ``objective``, ``steps``) or inside ``config`` / ``options`` /
+``env_params`` are grid axes; ``seeds`` is vmapped inside each run. A setting whose value is
+itself a list is a one-point axis: ``"policy_hidden": [[64, 64]]``.
+"""
+
+from __future__ import annotations
+
+import csv
+import itertools
+import json
+import os
+import runpy
+from typing import Any
+
+from blx.experiments import runs
+
+__all__ = ["load_spec", "expand", "run_sweep", "TABLE_METRICS"]
+
+_KEYS = {"name", "env", "objective", "seeds", "steps", "config", "options", "env_params", "out"}
+
+# (column label, metric key, sign): the paper's tables report -LGR and -energy distance.
+TABLE_METRICS = {
+    "mimax": [("MI(s,z)", "eval/mi", 1.0), ("H(s)", "eval/entropy", 1.0),
+              ("-LGR", "eval/lgr", -1.0), ("coverage", "eval/coverage", 1.0)],
+    "dmin": [("-energy distance", "eval/energy_distance", -1.0)],
+    "task": [("episode reward", "eval/episode_reward", 1.0),
+             ("episode score", "eval/episode_score", 1.0)],
+}
+
+
+def load_spec(path: str) -> dict:
+  """Reads a sweep spec from .json, .yaml/.yml or .py (a module-level ``SPEC`` dict)."""
+  if not os.path.exists(path):
+    raise ValueError(f"sweep spec {path!r} does not exist")
+  ext = os.path.splitext(path)[1].lower()
+  if ext == ".json":
+    with open(path) as f:
+      spec = json.load(f)
+  elif ext in (".yaml", ".yml"):
+    import yaml
+    with open(path) as f:
+      spec = yaml.safe_load(f)
+  elif ext == ".py":
+    spec = runpy.run_path(path).get("SPEC")
+  else:
+    raise ValueError(f"sweep spec {path!r}: use .json, .yaml, .yml or .py")
+  if not isinstance(spec, dict):
+    raise ValueError(f"sweep spec {path!r}: expected a dict (a Python spec defines SPEC = {{...}})")
+  unknown = sorted(set(spec) - _KEYS)
+  if unknown:
+    raise ValueError(f"sweep spec {path!r}: unknown key(s) {unknown}; valid keys are "
+                     f"{sorted(_KEYS)}")
+  for key in ("env", "objective"):
+    if key not in spec:
+      raise ValueError(f"sweep spec {path!r}: missing {key!r}")
+  return spec
+
+
+def _axes(spec: dict) -> list[tuple[tuple[str, ...], list]]:
+  axes = []
+  for key in ("env", "objective", "steps"):
+    if isinstance(spec.get(key), list):
+      axes.append(((key,), spec[key]))
+  for group in ("config", "options", "env_params"):
+    for key, value in (spec.get(group) or {}).items():
+      if isinstance(value, list):
+        axes.append(((group, key), value))
+  return axes
+
+
+def expand(spec: dict) -> list[tuple[str, runs.RunSpec]]:
+  """The grid points as ``(name, RunSpec)``; names join ``key=value`` of the varied axes."""
+  axes = _axes(spec)
+  points = []
+  for point in itertools.product(*[v for _, v in axes]) if axes else [()]:
+    chosen = {path: v for (path, _), v in zip(axes, point)}
+    get = lambda key: chosen.get((key,), spec.get(key))
+    group = lambda g: {k: chosen.get((g, k), v) for k, v in (spec.get(g) or {}).items()}
+    ppo = group("config")
+    if get("steps") is not None:
+      ppo["num_timesteps"] = int(get("steps"))
+    run_spec = runs.RunSpec(env=get("env"), objective=get("objective"),
+                            objective_options=group("options"), ppo=ppo,
+                            seeds=tuple(int(s) for s in spec.get("seeds", [0])),
+                            env_params=group("env_params"))
+    varied = {path: v for (path, options), v in zip(axes, point) if len(options) > 1}
+    name = "__".join(f"{path[-1]}={_fmt(v)}" for path, v in varied.items()) or "run"
+    points.append((name, run_spec))
+  return points
+
+
+def _fmt(v: Any) -> str:
+  return str(v).replace("/", "-").replace(" ", "")
+
+
+def _family(objective: str) -> str:
+  from blx import objectives
+  return ("mimax" if objective in objectives.MIMAX else
+          "dmin" if objective in objectives.DMIN else "task")
+
+
+def run_sweep(spec: dict, out: str, *, progress=True, eval_metrics: bool = False) -> list[dict]:
+  """Trains and evaluates every grid point (skipping points already evaluated), then writes
+  ``summary.md``, ``summary.csv`` and ``summary.tex`` in ``out``; returns the table rows."""
+  points = expand(spec)
+  # Build everything first so a bad option fails before any training.
+  for _, run_spec in points:
+    runs.build(run_spec)
+  os.makedirs(out, exist_ok=True)
+  rows = []
+  for i, (name, run_spec) in enumerate(points):
+    directory = os.path.join(out, name)
+    eval_path = os.path.join(directory, "eval.json")
+    if os.path.exists(eval_path):
+      with open(eval_path) as f:
+        result = json.load(f)
+    else:
+      if progress:
+        print(f"[blx sweep] {i + 1}/{len(points)}: {name}", flush=True)
+      resume = os.path.exists(os.path.join(directory, "config.json"))
+      run = runs.train_run(run_spec, directory, resume=resume, progress=progress,
+                           eval_metrics=eval_metrics)
+      result = runs.write_eval(run)
+      from blx.experiments import plots
+      plots.write_all(run, run.meta.get("history", []))
+    rows.append({"name": name, "env": run_spec.env, "objective": run_spec.objective,
+                 "family": _family(run_spec.objective), "summary": result["summary"],
+                 "seeds": len(run_spec.seeds)})
+  write_tables(rows, out)
+  return rows
+
+
+def _cell(summary: dict, key: str, sign: float) -> tuple[str, float, float]:
+  if key not in summary:
+    return "-", float("nan"), float("nan")
+  mean, std = sign * summary[key]["mean"], summary[key]["std"]
+  return f"{mean:.3f} ± {std:.3f}", mean, std
+
+
+def write_tables(rows: list[dict], out: str) -> None:
+  """One table per family (MI-max, D-min, task), rows = grid points, as Markdown, CSV and LaTeX."""
+  md, tex, csv_rows = [], [], []
+  for family in ("mimax", "dmin", "task"):
+    group = [r for r in rows if r["family"] == family]
+    if not group:
+      continue
+    cols = TABLE_METRICS[family]
+    md.append(f"| run | seeds | {' | '.join(c for c, _, _ in cols)} |")
+    md.append("| --- | ---: |" + " ---: |" * len(cols))
+    tex.append("\\begin{tabular}{l" + "c" * (len(cols) + 1) + "}\n\\toprule")
+    tex.append("run & seeds & " + " & ".join(c.replace("±", "$\\pm$") for c, _, _ in cols)
+               + " \\\\\n\\midrule")
+    for r in group:
+      cells = [_cell(r["summary"], key, sign) for _, key, sign in cols]
+      md.append(f"| {r['name']} | {r['seeds']} | " + " | ".join(c[0] for c in cells) + " |")
+      tex.append(r["name"].replace("_", "\\_") + f" & {r['seeds']} & " + " & ".join(
+          c[0].replace("±", "$\\pm$") for c in cells) + " \\\\")
+      row = {"family": family, "run": r["name"], "env": r["env"], "objective": r["objective"],
+             "seeds": r["seeds"]}
+      for (label, _, _), (_, mean, std) in zip(cols, cells):
+        row[f"{label} mean"], row[f"{label} std"] = mean, std
+      csv_rows.append(row)
+    md.append("")
+    tex.append("\\bottomrule\n\\end{tabular}\n")
+  with open(os.path.join(out, "summary.md"), "w") as f:
+    f.write("\n".join(md))
+  with open(os.path.join(out, "summary.tex"), "w") as f:
+    f.write("\n".join(tex))
+  columns = list(dict.fromkeys(k for r in csv_rows for k in r))
+  with open(os.path.join(out, "summary.csv"), "w", newline="") as f:
+    writer = csv.DictWriter(f, columns)
+    writer.writeheader()
+    writer.writerows(csv_rows)
+

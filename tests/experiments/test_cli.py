@@ -1,0 +1,145 @@
+"""The ``blx`` command end to end on CPU with tiny budgets: train -> eval -> render -> sweep, the
+files they write, and the bad-input cases (one line, exit status 2)."""
+
+from __future__ import annotations
+
+import csv
+import json
+import os
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from blx.experiments import cli
+
+ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+TINY = ["--config", "num_envs=16", "--config", "batch_size=8", "--config", "num_minibatches=4",
+        "--config", "unroll_length=5", "--config", "episode_length=20", "--config", "num_evals=2",
+        "--config", "num_eval_envs=4", "--config", "policy_hidden=(16,16)",
+        "--config", "value_hidden=(16,16)", "--steps", "1600"]
+
+
+@pytest.fixture(scope="module")
+def trained(tmp_path_factory):
+  out = str(tmp_path_factory.mktemp("runs") / "diayn")
+  rc = cli.main(["train", "--num-skills", "3", "--seeds", "0,1", "--out", out, *TINY])
+  assert rc == 0
+  return out
+
+
+def test_train_writes_a_complete_run_directory(trained):
+  names = set(os.listdir(trained))
+  assert {"config.json", "metrics.csv", "eval.json", "checkpoint", "plots"} <= names
+  assert {"training_curves.png", "skills.png"} <= set(os.listdir(os.path.join(trained, "plots")))
+  config = json.load(open(os.path.join(trained, "config.json")))
+  assert config["env"] == "point" and config["objective"] == "diayn"
+  assert config["objective_options"] == {"num_skills": 3}
+  assert config["desc"]["components"]["agent1"]["component"] == "point"
+  rows = list(csv.DictReader(open(os.path.join(trained, "metrics.csv"))))
+  # 2 evaluations x 2 seeds, with finite rewards.
+  assert len(rows) == 4 and {r["seed"] for r in rows} == {"0", "1"}
+  assert all(np.isfinite(float(r["eval/episode_reward"])) for r in rows)
+
+
+def test_eval_reports_the_mimax_metrics_as_json(trained, capsys):
+  assert cli.main(["eval", trained, "--json"]) == 0
+  result = json.loads(capsys.readouterr().out)
+  for key in ("eval/mi", "eval/entropy", "eval/lgr", "eval/coverage", "eval/episode_reward"):
+    values = result["per_seed"][key]
+    assert len(values) == 2 and all(np.isfinite(values)), key
+  # MI is bounded by H(s) and by log K (3 skills).
+  assert 0 <= result["summary"]["eval/mi"]["mean"] <= np.log(3) + 1e-5
+  assert result["summary"]["eval/mi"]["mean"] <= result["summary"]["eval/entropy"]["mean"] + 1e-5
+
+
+def test_load_run_rebuilds_env_objective_and_params(trained):
+  import blx
+  run = blx.load_run(trained)
+  assert run.objective.name == "diayn" and run.objective.latent_size == 3
+  assert run.env.observation_size == 4
+  leaves = [np.asarray(x) for x in __import__("jax").tree.leaves(run.params["policy"])]
+  assert all(x.shape[0] == 2 for x in leaves)  # the seed axis
+
+
+def test_render_writes_a_video_with_frames_of_the_right_size(trained, tmp_path):
+  out = str(tmp_path / "video.mp4")
+  env = {**os.environ, "PYTHONPATH": ROOT}
+  proc = subprocess.run([sys.executable, "-m", "blx.experiments.cli", "render", trained,
+                         "--skills", "0,2", "--width", "96", "--height", "64", "--out", out],
+                        capture_output=True, text=True, env=env, timeout=600)
+  if "could not open a headless OpenGL context" in proc.stderr:
+    pytest.skip("no headless OpenGL on this machine (install libegl1 or libosmesa6)")
+  assert proc.returncode == 0, proc.stderr[-2000:]
+  import imageio.v3 as iio
+  frames = iio.imread(out)
+  # 2 skills x (20 steps + the first frame), 64 x 96 RGB, not blank.
+  assert frames.shape == (42, 64, 96, 3)
+  assert frames.std() > 1.0
+
+
+def test_sweep_writes_one_run_per_point_and_aggregate_tables(tmp_path, capsys):
+  spec = {"name": "tiny", "env": "point", "objective": ["gcrl", "gail"], "seeds": [0, 1],
+          "steps": 1600, "config": {k: v for k, v in
+                                    (a.split("=") for a in TINY[1:-2:2])},
+          "options": {"obs_scale": 4.0}}
+  spec["config"] = {k: eval(v) for k, v in spec["config"].items()}
+  # A list is a grid axis; a list-valued setting is a one-point axis holding the list.
+  spec["config"].update(policy_hidden=[[16, 16]], value_hidden=[[16, 16]])
+  path = tmp_path / "spec.json"
+  path.write_text(json.dumps(spec))
+  out = str(tmp_path / "sweep")
+  assert cli.main(["sweep", str(path), "--out", out]) == 0
+  assert {"objective=gcrl", "objective=gail"} <= set(os.listdir(out))
+  assert os.path.exists(os.path.join(out, "objective=gail", "plots", "density.png"))
+  assert os.path.exists(os.path.join(out, "objective=gail", "plots", "discriminator.png"))
+  rows = list(csv.DictReader(open(os.path.join(out, "summary.csv"))))
+  assert [r["run"] for r in rows] == ["objective=gcrl", "objective=gail"]
+  assert all(r["seeds"] == "2" for r in rows)
+  assert np.isfinite(float(rows[0]["MI(s,z) mean"]))
+  assert float(rows[1]["-energy distance mean"]) < 0  # energy distances are positive
+  md = open(os.path.join(out, "summary.md")).read()
+  assert "| objective=gcrl | 2 |" in md and "±" in md
+  assert "\\pm" in open(os.path.join(out, "summary.tex")).read()
+  # A second call reuses the evaluated points instead of retraining.
+  mtime = os.path.getmtime(os.path.join(out, "objective=gcrl", "eval.json"))
+  assert cli.main(["sweep", str(path), "--out", out]) == 0
+  assert os.path.getmtime(os.path.join(out, "objective=gcrl", "eval.json")) == mtime
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["train", "--env", "nope"], "unknown env 'nope'; valid envs are"),
+    (["train", "--objective", "dayn"], "unknown objective 'dayn'; valid objectives are"),
+    (["train", "--config", "foo=1"], "unknown key(s) ['foo']; valid keys are"),
+    (["train", "--config", "num_envs"], "expected key=value"),
+    (["train", "--seeds", "a,b"], "expected comma-separated ints"),
+    (["train", "--option", "bogus=1"], "unknown option(s) ['bogus']"),
+    (["eval", "/nonexistent/run"], "no run directory at"),
+    (["envs", "nope"], "unknown env 'nope'"),
+])
+def test_bad_input_is_one_line_and_exit_status_2(argv, message, capsys):
+  assert cli.main(argv) == 2
+  err = capsys.readouterr().err.strip().splitlines()
+  assert len(err) == 1 and message in err[0], err
+  assert "Traceback" not in err[0]
+
+
+def test_incompatible_or_existing_run_directories(trained, tmp_path, capsys):
+  # An existing run is never overwritten without --resume.
+  assert cli.main(["train", "--out", trained, *TINY]) == 2
+  assert "already holds a run" in capsys.readouterr().err
+  # A run directory from another format version.
+  old = tmp_path / "old"
+  old.mkdir()
+  (old / "config.json").write_text(json.dumps({"format_version": 0}))
+  assert cli.main(["eval", str(old)]) == 2
+  assert "run format 0" in capsys.readouterr().err
+  assert cli.main(["eval", str(tmp_path)]) == 2
+  assert "not a blx run directory" in capsys.readouterr().err
+
+
+def test_envs_describes_an_env(capsys):
+  assert cli.main(["envs", "ant"]) == 0
+  out = capsys.readouterr().out
+  assert "action size 8" in out and "vel_xy" in out and "[13, 14]" in out
