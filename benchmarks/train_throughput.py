@@ -40,13 +40,14 @@ def raw_physics(env, num_envs: int, steps: int = 50) -> float:
   return num_envs * steps / (time.perf_counter() - t)
 
 
-def measure(env_name: str, num_envs: int, iterations: int) -> dict:
+def measure(env_name: str, num_envs: int, iterations: int, objective=None) -> dict:
   env = envs.create(env_name)
   # Keep the ant row's 16 unrolls per env per iteration (2048 envs, batch 1024, 32 minibatches).
   config = training.ppo_defaults(env_name, num_envs=num_envs, batch_size=num_envs // 2,
                                  num_minibatches=32, num_timesteps=10**12, num_evals=10**6)
   config = config.replace(num_timesteps=config.env_steps_per_iteration * 10**6)  # 1 iteration a chunk
-  trainer = training.make_trainer(env, task(), config)
+  objective = objective(env) if callable(objective) else task()
+  trainer = training.make_trainer(env, objective, config)
   assert trainer.iterations_per_chunk == 1
   t0 = time.perf_counter()
   state = jax.jit(trainer.init)(jax.random.PRNGKey(0))
@@ -60,7 +61,7 @@ def measure(env_name: str, num_envs: int, iterations: int) -> dict:
   jax.block_until_ready(state.params)
   train_sps = config.env_steps_per_iteration * iterations / (time.perf_counter() - t)
   raw_sps = raw_physics(env, num_envs)
-  return dict(env=env_name, num_envs=num_envs, batch_size=config.batch_size,
+  return dict(env=env_name, objective=objective.name, num_envs=num_envs, batch_size=config.batch_size,
               num_minibatches=config.num_minibatches, train_env_steps_per_s=train_sps,
               raw_env_steps_per_s=raw_sps, ratio=train_sps / raw_sps,
               start_to_first_step_s=first_step_s,
