@@ -46,12 +46,14 @@ def time_to_mi(steps: int, num_envs: int) -> dict:
                                       episode_length=1000, last_steps=500, num_goals=10)
   rows = []
   t0 = time.perf_counter()
-  result = training.train(env, obj, config, progress=lambda r: rows.append(
-      {"time": time.perf_counter() - t0, "env_steps": r["env_steps"], "mi": r["eval/mi"][0],
-       "entropy": r["eval/entropy"][0], "lgr": r["eval/lgr"][0],
-       "steps_per_s": r["steps_per_second"]}) or print(json.dumps(rows[-1]), flush=True),
-      evaluate=evaluator)
-  del result
+
+  def record(r):
+    rows.append({"time": time.perf_counter() - t0, "env_steps": r["env_steps"],
+                 "mi": r["eval/mi"][0], "entropy": r["eval/entropy"][0], "lgr": r["eval/lgr"][0],
+                 "steps_per_s": r["steps_per_second"]})
+    print(json.dumps(rows[-1]), flush=True)
+
+  training.train(env, obj, config, progress=record, evaluate=evaluator)
   reached = next((r for r in rows if r["mi"] >= PAPER_MI), None)
   return {"rows": rows, "time_to_paper_mi_s": reached and reached["time"],
           "steps_to_paper_mi": reached and reached["env_steps"], "num_envs": num_envs,
@@ -70,7 +72,8 @@ def main():
   if not args.skip_throughput:
     for n in [int(x) for x in args.num_envs.split(",")]:
       task_row = train_throughput.measure("ant", n, args.iterations)
-      diayn_row = train_throughput.measure("ant", n, args.iterations, objective=diayn)
+      diayn_row = train_throughput.measure("ant", n, args.iterations, objective=diayn,
+                                           raw_sps=task_row["raw_env_steps_per_s"])
       row = {"num_envs": n, "raw": task_row["raw_env_steps_per_s"],
              "task": task_row["train_env_steps_per_s"],
              "diayn": diayn_row["train_env_steps_per_s"],

@@ -40,7 +40,10 @@ def raw_physics(env, num_envs: int, steps: int = 50) -> float:
   return num_envs * steps / (time.perf_counter() - t)
 
 
-def measure(env_name: str, num_envs: int, iterations: int, objective=None) -> dict:
+def measure(env_name: str, num_envs: int, iterations: int, objective=None,
+            raw_sps: float | None = None) -> dict:
+  """One row; ``objective(env) -> Objective`` (default task); ``raw_sps`` reuses a raw-physics
+  figure measured at the same num_envs instead of measuring it again."""
   env = envs.create(env_name)
   # Keep the ant row's 16 unrolls per env per iteration (2048 envs, batch 1024, 32 minibatches).
   config = training.ppo_defaults(env_name, num_envs=num_envs, batch_size=num_envs // 2,
@@ -60,7 +63,7 @@ def measure(env_name: str, num_envs: int, iterations: int, objective=None) -> di
     state, metrics = chunk(state)
   jax.block_until_ready(state.params)
   train_sps = config.env_steps_per_iteration * iterations / (time.perf_counter() - t)
-  raw_sps = raw_physics(env, num_envs)
+  raw_sps = raw_sps or raw_physics(env, num_envs)
   return dict(env=env_name, objective=objective.name, num_envs=num_envs, batch_size=config.batch_size,
               num_minibatches=config.num_minibatches, train_env_steps_per_s=train_sps,
               raw_env_steps_per_s=raw_sps, ratio=train_sps / raw_sps,

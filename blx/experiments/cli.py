@@ -119,7 +119,7 @@ def _spec_from_args(args):
 
 
 def cmd_train(args) -> int:
-  from blx.experiments import plots, runs
+  from blx.experiments import runs
   spec = _spec_from_args(args)
   runs.build(spec)  # validate everything before creating a directory
   out = args.out or os.path.join("runs", f"{spec.env}_{spec.objective}_{time.strftime('%Y%m%d-%H%M%S')}")
@@ -132,11 +132,9 @@ def cmd_train(args) -> int:
     print(f"[blx] interrupted: resume with  blx train --out {out} --resume  (and the same "
           "--env/--objective/--seeds)", file=sys.stderr)
     return 130
-  result = runs.write_eval(run)
-  written = plots.write_all(run, run.meta.get("history", []))
-  _print_summary(result["summary"])
+  _print_summary(run.meta["eval"]["summary"])
   print(f"[blx] run directory: {out} (config.json, metrics.csv, eval.json, checkpoint/, "
-        + ", ".join(os.path.relpath(p, out) for p in written) + ")", file=sys.stderr)
+        + ", ".join(os.path.relpath(p, out) for p in run.meta["plots"]) + ")", file=sys.stderr)
   return 0
 
 
@@ -163,8 +161,7 @@ def cmd_render(args) -> int:
   import jax.numpy as jnp
   import numpy as np
   from blx import metrics
-  from blx.experiments import render, runs
-  render.ensure_headless_gl()
+  from blx.experiments import render, runs  # the GL backend was chosen in _quiet_imports
   run = runs.load_run(args.dir)
   if not 0 <= args.seed_index < len(run.spec.seeds):
     raise UsageError(f"--seed-index {args.seed_index}: the run has {len(run.spec.seeds)} seed(s)")

@@ -24,6 +24,7 @@ import jax
 import numpy as np
 
 from blx import envs, metrics, objectives, training
+from blx.experiments import plots
 from blx.training import checkpoint
 
 __all__ = ["FORMAT_VERSION", "RunSpec", "Run", "RunError", "build", "load_run", "write_config",
@@ -233,7 +234,8 @@ def summarise(values: dict[str, list[float]]) -> dict[str, dict[str, float]]:
 
 def train_run(spec: RunSpec, directory: str, *, resume: bool = False, progress=True,
               eval_metrics: bool = False) -> Run:
-  """Trains ``spec`` into ``directory`` (config, checkpoint, metrics.csv, eval.json, plots).
+  """Trains ``spec`` into ``directory`` and completes it: config, checkpoint, metrics.csv, then
+  ``eval.json`` and the plots. ``run.meta`` holds ``history``, ``eval`` and ``plots`` (paths).
 
   An existing run directory is only continued with ``resume=True``; it is never overwritten.
   """
@@ -255,6 +257,8 @@ def train_run(spec: RunSpec, directory: str, *, resume: bool = False, progress=T
   write_metrics_csv(os.path.join(directory, "metrics.csv"), result.metrics, spec.seeds)
   run = Run(directory, spec, env, objective, config, result.params, result.policy,
             {"history": result.metrics})
+  run.meta["eval"] = write_eval(run)
+  run.meta["plots"] = plots.write_all(run, result.metrics)
   return run
 
 

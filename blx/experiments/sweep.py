@@ -127,11 +127,8 @@ def run_sweep(spec: dict, out: str, *, progress=True, eval_metrics: bool = False
       if progress:
         print(f"[blx sweep] {i + 1}/{len(points)}: {name}", flush=True)
       resume = os.path.exists(os.path.join(directory, "config.json"))
-      run = runs.train_run(run_spec, directory, resume=resume, progress=progress,
-                           eval_metrics=eval_metrics)
-      result = runs.write_eval(run)
-      from blx.experiments import plots
-      plots.write_all(run, run.meta.get("history", []))
+      result = runs.train_run(run_spec, directory, resume=resume, progress=progress,
+                              eval_metrics=eval_metrics).meta["eval"]
     rows.append({"name": name, "env": run_spec.env, "objective": run_spec.objective,
                  "family": _family(run_spec.objective), "summary": result["summary"],
                  "seeds": len(run_spec.seeds)})
