@@ -80,7 +80,23 @@ def _select(obs: jax.Array, indices) -> jax.Array:
   return obs if indices is None else obs[np.asarray(indices)]
 
 
+def _check_types(who: str, *, numbers: dict | None = None, flags: dict | None = None,
+                 hidden=None) -> None:
+  """Options of the wrong type fail here, by name (a string "True" would otherwise be truthy)."""
+  for name, value in (numbers or {}).items():
+    if not isinstance(value, (int, float, np.integer, np.floating)) or isinstance(value, bool):
+      raise ValueError(f"{who}: {name} must be a number, got {value!r}")
+  for name, value in (flags or {}).items():
+    if not isinstance(value, bool):
+      raise ValueError(f"{who}: {name} must be True or False, got {value!r}")
+  if hidden is not None and (not isinstance(hidden, (tuple, list)) or not all(
+      isinstance(h, int) and not isinstance(h, bool) and h > 0 for h in hidden)):
+    raise ValueError(f"{who}: hidden must be a sequence of positive ints, e.g. (32, 32), got "
+                     f"{hidden!r}")
+
+
 def _check_options(who: str, *, logits_clip: float, obs_scale: float) -> None:
+  _check_types(who, numbers=dict(logits_clip=logits_clip, obs_scale=obs_scale))
   if not logits_clip > 0:
     raise ValueError(f"{who}: logits_clip must be > 0, got {logits_clip}")
   if not obs_scale > 0:
@@ -134,6 +150,8 @@ def _mimax(name: str, *, prior: priors.Prior, posterior: str, indices, obs_scale
   """Builds an MI-max objective; ``posterior`` is "identity" (q = N(s_idx, I)), "gaussian" (an
   MLP mean) or "categorical" (MLP logits)."""
   _check_options(name, logits_clip=logits_clip, obs_scale=obs_scale)
+  _check_types(name, numbers=dict(env_reward_multiplier=env_reward_multiplier),
+               flags=dict(spectral_norm=spectral_norm, normalize_obs=normalize_obs), hidden=hidden)
   learned = posterior != "identity"
   if not learned and (spectral_norm or normalize_obs):
     raise ValueError(f"{name}: spectral_norm and normalize_obs apply to a learned discriminator; "
@@ -209,6 +227,7 @@ def fixed_gcrl(*, obs_indices: Indices = None, env: Any = None, obs_scale: float
   """Goal-conditioned RL to one fixed goal z = obs_scale in every indexed dimension;
   r = 4.5 d - 1/2 ||z - s_idx||^2 + const normaliser terms (>= 0 within 3 of the goal)."""
   indices = _need_indices("fixed_gcrl", obs_indices, env)
+  _check_types("fixed_gcrl", numbers=dict(obs_scale=obs_scale))  # used before _mimax checks it
   return _mimax("fixed_gcrl", prior=priors.deterministic_prior(np.full(len(indices), obs_scale)),
                 posterior="identity", indices=indices, obs_scale=obs_scale, logits_clip=5.0,
                 spectral_norm=False, env_reward_multiplier=env_reward_multiplier,
@@ -219,6 +238,7 @@ def gcrl(*, obs_indices: Indices = None, env: Any = None, obs_scale: float = 5.0
          env_reward_multiplier: float = 0.0) -> Objective:
   """Goal-conditioned RL: z ~ U(-obs_scale/2, obs_scale/2)^d, q(z|s) = N(s_idx, I)."""
   indices = _need_indices("gcrl", obs_indices, env)
+  _check_types("gcrl", numbers=dict(obs_scale=obs_scale))  # used before _mimax checks it
   half = 0.5 * obs_scale
   return _mimax("gcrl", prior=priors.uniform_prior(-half, half, len(indices)),
                 posterior="identity", indices=indices, obs_scale=obs_scale, logits_clip=5.0,
@@ -292,6 +312,10 @@ def _dmin(name: str, transform: Callable[[jax.Array], jax.Array] | None, *, targ
   if indices is None:
     raise ValueError(f"{name}: give obs_indices (ints or a name such as 'vel_xy' with env=)")
   _check_options(name, logits_clip=logits_clip, obs_scale=obs_scale)
+  _check_types(name, numbers=dict(env_reward_multiplier=env_reward_multiplier,
+                                  gradient_penalty_weight=gradient_penalty_weight),
+               flags=dict(include_action=include_action, spectral_norm=spectral_norm,
+                          normalize_obs=normalize_obs, balance_data=balance_data), hidden=hidden)
   target = _default_target(name, target, indices, obs_scale, num_modes)
   if gradient_penalty_weight < 0:
     raise ValueError(f"{name}: gradient_penalty_weight must be >= 0, got {gradient_penalty_weight}")

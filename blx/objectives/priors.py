@@ -25,7 +25,7 @@ class Prior(NamedTuple):
 
 def uniform_prior(low: float, high: float, dim: int) -> Prior:
   """Uniform on the box [low, high]^dim: log p = -dim log(high - low) inside, -inf outside."""
-  if dim < 1 or not high > low:
+  if not isinstance(dim, int) or dim < 1 or not high > low:
     raise ValueError(f"uniform_prior: need dim >= 1 and high > low, got {low}, {high}, {dim}")
   dist = distrax.Independent(distrax.Uniform(jnp.full((dim,), float(low)),
                                              jnp.full((dim,), float(high))), 1)
@@ -35,8 +35,8 @@ def uniform_prior(low: float, high: float, dim: int) -> Prior:
 
 def categorical_prior(num_skills: int) -> Prior:
   """Uniform over ``num_skills`` one-hot skills: log p = -log K."""
-  if num_skills < 2:
-    raise ValueError(f"categorical_prior: need num_skills >= 2, got {num_skills}")
+  if not isinstance(num_skills, int) or isinstance(num_skills, bool) or num_skills < 2:
+    raise ValueError(f"categorical_prior: num_skills must be an int >= 2, got {num_skills!r}")
   dist = distrax.OneHotCategorical(logits=jnp.zeros(num_skills), dtype=jnp.float32)
   return Prior(sample=lambda key: dist.sample(seed=key), log_prob=dist.log_prob, dim=num_skills,
                kind="categorical")

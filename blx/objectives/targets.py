@@ -47,9 +47,9 @@ def multimode_gaussian(num_modes: int = 2, *, scale: float, dim: int, num_sample
     num_samples: how many samples to draw once, with ``seed`` (Braxlines: 250).
     seed: the PRNG seed of the samples.
   """
-  if num_modes < 1:
-    raise ValueError(f"multimode_gaussian: num_modes must be >= 1, got {num_modes}")
-  if not scale > 0:
+  if not isinstance(num_modes, int) or isinstance(num_modes, bool) or num_modes < 1:
+    raise ValueError(f"multimode_gaussian: num_modes must be an int >= 1, got {num_modes!r}")
+  if isinstance(scale, (str, bool)) or not scale > 0:
     raise ValueError(f"multimode_gaussian: scale must be > 0, got {scale}")
   if dim == 1:
     means = np.linspace(-scale, scale, num_modes + 2)[1:-1, None]

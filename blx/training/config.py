@@ -47,6 +47,22 @@ class PPOConfig:
       value = getattr(self, name)
       if not isinstance(value, int) or isinstance(value, bool) or value < 1:
         raise ValueError(f"PPOConfig.{name} must be a positive int, got {value!r}")
+    real = lambda v: isinstance(v, (int, float)) and not isinstance(v, bool)
+    for name in ("learning_rate", "entropy_cost", "discounting", "gae_lambda", "clipping_epsilon",
+                 "reward_scaling"):
+      if not real(getattr(self, name)):
+        raise ValueError(f"PPOConfig.{name} must be a number, got {getattr(self, name)!r}")
+    if not (self.max_grad_norm is None or (real(self.max_grad_norm) and self.max_grad_norm > 0)):
+      raise ValueError(f"PPOConfig.max_grad_norm must be None or a positive number, got "
+                       f"{self.max_grad_norm!r}")
+    if not isinstance(self.normalize_observations, bool):
+      raise ValueError(f"PPOConfig.normalize_observations must be True or False, got "
+                       f"{self.normalize_observations!r}")
+    if self.eval_episode_length is not None and (
+        not isinstance(self.eval_episode_length, int) or isinstance(self.eval_episode_length, bool)
+        or self.eval_episode_length < 1):
+      raise ValueError(f"PPOConfig.eval_episode_length must be None or a positive int, got "
+                       f"{self.eval_episode_length!r}")
     if (self.batch_size * self.num_minibatches) % self.num_envs:
       raise ValueError(
           f"PPOConfig: batch_size * num_minibatches ({self.batch_size * self.num_minibatches}) must "

@@ -15,10 +15,10 @@ import pytest
 from blx.experiments import cli
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
-TINY = ["--config", "num_envs=16", "--config", "batch_size=8", "--config", "num_minibatches=4",
-        "--config", "unroll_length=5", "--config", "episode_length=20", "--config", "num_evals=2",
-        "--config", "num_eval_envs=4", "--config", "policy_hidden=(16,16)",
-        "--config", "value_hidden=(16,16)", "--steps", "1600"]
+TINY_CONFIG = dict(num_envs=16, batch_size=8, num_minibatches=4, unroll_length=5, episode_length=20,
+                   num_evals=2, num_eval_envs=4, policy_hidden=(16, 16), value_hidden=(16, 16))
+TINY = [arg for k, v in TINY_CONFIG.items() for arg in ("--config", f"{k}={v!r}".replace(" ", ""))]
+TINY += ["--steps", "1600"]
 
 
 @pytest.fixture(scope="module")
@@ -81,10 +81,7 @@ def test_render_writes_a_video_with_frames_of_the_right_size(trained, tmp_path):
 
 def test_sweep_writes_one_run_per_point_and_aggregate_tables(tmp_path, capsys):
   spec = {"name": "tiny", "env": "point", "objective": ["gcrl", "gail"], "seeds": [0, 1],
-          "steps": 1600, "config": {k: v for k, v in
-                                    (a.split("=") for a in TINY[1:-2:2])},
-          "options": {"obs_scale": 4.0}}
-  spec["config"] = {k: eval(v) for k, v in spec["config"].items()}
+          "steps": 1600, "config": dict(TINY_CONFIG), "options": {"obs_scale": 4.0}}
   # A list is a grid axis; a list-valued setting is a one-point axis holding the list.
   spec["config"].update(policy_hidden=[[16, 16]], value_hidden=[[16, 16]])
   path = tmp_path / "spec.json"
@@ -115,6 +112,10 @@ def test_sweep_writes_one_run_per_point_and_aggregate_tables(tmp_path, capsys):
     (["train", "--config", "num_envs"], "expected key=value"),
     (["train", "--seeds", "a,b"], "expected comma-separated ints"),
     (["train", "--option", "bogus=1"], "unknown option(s) ['bogus']"),
+    (["train", "--config", "learning_rate=abc"], "learning_rate must be a number, got 'abc'"),
+    (["train", "--option", "spectral_norm=maybe"], "spectral_norm must be True or False"),
+    (["train", "--objective", "gcrl", "--option", "obs_scale=big"], "obs_scale must be a number"),
+    (["train", "--num-skills", "1"], "num_skills must be an int >= 2, got 1"),
     (["eval", "/nonexistent/run"], "no run directory at"),
     (["envs", "nope"], "unknown env 'nope'"),
 ])
