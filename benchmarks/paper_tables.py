@@ -1,6 +1,11 @@
 """The paper's Ant rows (Tables 3 and 4) through the sweep machinery of ``blx sweep``.
 
-    python benchmarks/paper_tables.py [--seeds 5] [--only mimax|dmin] [--out sweeps/paper]
+    python benchmarks/paper_tables.py [--seeds 5] [--only gcrl|mimax|dmin] [--objective diayn]
+                                      [--collect] [--out sweeps/paper]
+
+``--objective`` trains only that algorithm's point (one process per GPU:
+``CUDA_VISIBLE_DEVICES=i python benchmarks/paper_tables.py --objective NAME &`` for each), and
+``--collect`` then gathers every evaluated point into the tables without training.
 
 MI-max: gcrl, diayn, cdiayn, diayn_full on the ant's xy velocity, obs_scale 5, spectral norm on;
 D-min: gail, gail2, airl, mle to the bimodal xy-velocity target (modes (+-4, 0), std 0.8), obs_scale
@@ -42,13 +47,25 @@ def main():
   parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
   parser.add_argument("--seeds", type=int, default=5)
   parser.add_argument("--only", choices=["gcrl", "mimax", "dmin"], default=None)
+  parser.add_argument("--objective", default=None, help="train only this algorithm's point")
+  parser.add_argument("--collect", action="store_true", help="only gather evaluated points")
   parser.add_argument("--out", default="sweeps/paper")
   args = parser.parse_args()
+  known = [o for spec in specs(1).values() for o in spec["objective"]]
+  if args.objective and args.objective not in known:
+    parser.error(f"--objective {args.objective!r}: valid ones are {known}")
+  select = None
+  if args.collect:
+    select = lambda name, run_spec: False
+  elif args.objective:
+    select = lambda name, run_spec: run_spec.objective == args.objective
   for family, spec in specs(args.seeds).items():
     if args.only and family != args.only:
       continue
+    if args.objective and args.objective not in spec["objective"]:
+      continue
     out = os.path.join(args.out, family)
-    rows = sweep.run_sweep(spec, out)
+    rows = sweep.run_sweep(spec, out, select=select)
     print(open(os.path.join(out, "summary.md")).read())
     for row in rows:
       print(f"paper {row['objective']}: {PAPER.get(row['objective'], '-')}")

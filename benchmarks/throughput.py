@@ -96,7 +96,7 @@ def main():
           f"({mi['steps_to_paper_mi']} steps); total {mi['total_time_s']:.0f} s")
     out = os.environ.get("OUT")
     if out:
-      with open(os.path.join(out, "time_to_mi.json"), "w") as f:
+      with open(os.path.join(out, f"time_to_mi_{mi['num_envs']}.json"), "w") as f:
         json.dump(mi, f, indent=1)
 
 

@@ -19,7 +19,7 @@ import itertools
 import json
 import os
 import runpy
-from typing import Any
+from typing import Any, Callable
 
 from blx.experiments import runs
 
@@ -108,9 +108,16 @@ def _family(objective: str) -> str:
           "dmin" if objective in objectives.DMIN else "task")
 
 
-def run_sweep(spec: dict, out: str, *, progress=True, eval_metrics: bool = False) -> list[dict]:
+def run_sweep(spec: dict, out: str, *, progress=True, eval_metrics: bool = False,
+              select: Callable[[str, runs.RunSpec], bool] | None = None) -> list[dict]:
   """Trains and evaluates every grid point (skipping points already evaluated), then writes
-  ``summary.md``, ``summary.csv`` and ``summary.tex`` in ``out``; returns the table rows."""
+  ``summary.md``, ``summary.csv`` and ``summary.tex`` in ``out``; returns the table rows.
+
+  ``select(name, run_spec)``, if given, picks the points this call may train; the others enter
+  the tables only if already evaluated (in ``out``). Several processes (one per GPU, say) can so
+  share one sweep: each trains its own points, and a last call with ``select=lambda *_: False``
+  gathers them all.
+  """
   points = expand(spec)
   # Build everything first so a bad option fails before any training.
   for _, run_spec in points:
@@ -123,6 +130,8 @@ def run_sweep(spec: dict, out: str, *, progress=True, eval_metrics: bool = False
     if os.path.exists(eval_path):
       with open(eval_path) as f:
         result = json.load(f)
+    elif select is not None and not select(name, run_spec):
+      continue
     else:
       if progress:
         print(f"[blx sweep] {i + 1}/{len(points)}: {name}", flush=True)

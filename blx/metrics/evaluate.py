@@ -1,15 +1,17 @@
 """Evaluation helpers: roll out a trained policy for a set of skills or goals and feed the metrics.
 
-They follow Braxlines' evaluators (``../reference`` notes, section 4): deterministic policies, 10
-skills (all K one-hots for a categorical prior, the single value of a deterministic one) x 10
-episodes, the last 500 steps, 1000 bins over +-obs_scale per dimension; 10 goals for LGR drawn from
-U(-obs_scale, obs_scale)^d with seed 0; for D-min 10 episodes, every 10th of the last 500 steps.
+They follow Braxlines' evaluators (``../reference`` notes, section 4): the policy's sampled
+actions (Braxlines' inference function samples; ``deterministic=True`` takes the mean action
+instead), 10 skills (all K one-hots for a categorical prior, the single value of a deterministic
+one) x 10 episodes, the last 500 steps, 1000 bins over +-obs_scale per dimension; 10 goals for LGR
+drawn from U(-obs_scale, obs_scale)^d with seed 0; for D-min 10 episodes, every 10th of the last
+500 steps.
 
 Every ``*_evaluator`` returns a pure function ``(policy, params, key) -> metrics`` that is jit- and
 vmap-able (``blx.training.train(..., evaluate=...)`` vmaps it over seeds); ``policy`` is
-``policy(params, obs [N, O], z [N, Z] | None) -> action`` (``TrainResult.policy``) and ``params``
-holds ``normalizer``, ``policy`` and ``objective``. ``evaluate_mimax`` / ``evaluate_dmin`` call one
-directly.
+``policy(params, obs [N, O], z [N, Z] | None, key=..., deterministic=...) -> action``
+(``TrainResult.policy``) and ``params`` holds ``normalizer``, ``policy`` and ``objective``.
+``evaluate_mimax`` / ``evaluate_dmin`` call one directly.
 """
 
 from __future__ import annotations
@@ -30,11 +32,14 @@ __all__ = ["rollout", "latents_for_evaluation", "eval_indices", "mimax_evaluator
 
 def rollout(env: Any, policy: Callable, params: dict, latents: jax.Array, key: jax.Array, *,
             episodes_per_latent: int, episode_length: int, action_repeat: int = 1,
-            conditions_policy: bool = True) -> jax.Array:
-  """Deterministic episodes for each latent: observations ``[L, M, T, O]`` (T policy steps).
+            conditions_policy: bool = True, deterministic: bool = False) -> jax.Array:
+  """Episodes for each latent: observations ``[L, M, T, O]`` (T policy steps).
 
-  After an episode terminates its last observation is held, so late steps of fallen agents are
-  counted where they fell (no auto-reset, as Braxlines' evaluation envs).
+  Actions are sampled from the policy (as Braxlines' evaluation) unless ``deterministic``, which
+  takes the mean action. There is no auto-reset and a terminated episode is not frozen: as in
+  Braxlines' evaluation envs (``auto_reset=False``), the physics and the policy go on for all
+  ``episode_length`` steps, so a fallen agent's later states are what it then does, not copies of
+  the state it fell in.
   """
   base = envs_lib.episode(envs_lib.action_repeat(envs_lib.unwrap(env), action_repeat),
                           episode_length)
@@ -42,17 +47,16 @@ def rollout(env: Any, policy: Callable, params: dict, latents: jax.Array, key: j
   num_latents = latents.shape[0]
   n = num_latents * episodes_per_latent
   z = jnp.repeat(latents, episodes_per_latent, axis=0)
-  state = jax.vmap(base.reset)(jax.random.split(key, n))
+  reset_key, action_key = jax.random.split(key)
+  state = jax.vmap(base.reset)(jax.random.split(reset_key, n))
 
-  def one(carry, _):
-    state, alive, held = carry
-    action = policy(params, state.obs, z if conditions_policy else None)
-    nxt = jax.vmap(base.step)(state, action)
-    obs = jnp.where(alive[:, None] > 0, nxt.obs, held)
-    alive = alive * (1.0 - nxt.done)
-    return (nxt, alive, obs), obs
+  def one(state, step_key):
+    action = policy(params, state.obs, z if conditions_policy else None, key=step_key,
+                    deterministic=deterministic)
+    state = jax.vmap(base.step)(state, action)
+    return state, state.obs
 
-  _, obs = jax.lax.scan(one, (state, jnp.ones(n), state.obs), None, length=steps)
+  _, obs = jax.lax.scan(one, state, jax.random.split(action_key, steps))
   obs = jnp.swapaxes(obs, 0, 1)  # [N, T, O]
   return obs.reshape((num_latents, episodes_per_latent) + obs.shape[1:])
 
@@ -86,8 +90,12 @@ def _family(objective: Objective, family: str, helper: str) -> None:
 def mimax_evaluator(env: Any, objective: Objective, *, num_latents: int = 10,
                     episodes_per_latent: int = 10, episode_length: int = 1000,
                     action_repeat: int = 1, last_steps: int = 500, bins: int = 1000,
-                    num_goals: int = 10, coverage_cell: float = 1.0) -> Callable:
+                    num_goals: int = 10, coverage_cell: float = 1.0,
+                    deterministic: bool = False) -> Callable:
   """``(policy, params, key) -> metrics`` for an MI-max objective.
+
+  The skill episodes (MI, H(s), coverage) and the goal episodes (LGR) run side by side in one
+  batched rollout, so an evaluation costs one episode of wall time.
 
   Metrics (``obs_scale`` = s, dims = the evaluated obs indices):
     ``eval/mi``, ``eval/entropy``, ``eval/conditional_entropy``: the 1-D particle estimates
@@ -105,15 +113,17 @@ def mimax_evaluator(env: Any, objective: Objective, *, num_latents: int = 10,
   goals = jax.random.uniform(jax.random.PRNGKey(0), (num_goals, len(indices)), minval=-scale,
                              maxval=scale)
   goal_obs = jnp.zeros((num_goals, obs_size)).at[:, indices].set(goals)
-  roll = lambda policy, params, latents, key: rollout(
-      env, policy, params, latents, key, episodes_per_latent=episodes_per_latent,
-      episode_length=episode_length, action_repeat=action_repeat)
 
   def evaluate(policy, params, key):
-    z_key, mi_key, lgr_key = jax.random.split(key, 3)
+    z_key, roll_key = jax.random.split(key)
     latents = latents_for_evaluation(objective, z_key, num_latents)
-    states = roll(policy, params, latents, mi_key)[:, :, -last_steps:][..., indices]  # [L,M,T,D]
     num = latents.shape[0]
+    goal_latents = jax.vmap(infer_latent, (None, 0))(params["objective"], goal_obs)
+    everything = rollout(env, policy, params, jnp.concatenate([latents, goal_latents]), roll_key,
+                         episodes_per_latent=episodes_per_latent, episode_length=episode_length,
+                         action_repeat=action_repeat, deterministic=deterministic)[..., indices]
+    states = everything[:num, :, -last_steps:]  # [L, M, T, D]
+    reached = everything[num:]
     labels = jnp.repeat(jnp.arange(num), states.shape[1] * states.shape[2])
     flat = states.reshape(-1, len(indices))
     mi = particle.mutual_information(flat, labels, bins=bins, value_range=value_range,
@@ -125,8 +135,6 @@ def mimax_evaluator(env: Any, objective: Objective, *, num_latents: int = 10,
       out["eval/mi_2d"] = particle.mutual_information_2d(
           flat[:, :2], labels, bins=30, value_range=value_range, num_labels=num)["mi"]
       out["eval/coverage"] = particle.state_coverage(flat[:, :2], cell=coverage_cell)
-    goal_latents = jax.vmap(infer_latent, (None, 0))(params["objective"], goal_obs)
-    reached = roll(policy, params, goal_latents, lgr_key)[..., indices]
     lgr = particle.latent_goal_reaching(reached, goals, last_steps=last_steps)
     out["eval/lgr"] = lgr["lgr"]
     out.update({f"eval/lgr_1d/{i}": lgr["lgr_1d"][k] for k, i in enumerate(indices)})
@@ -137,10 +145,10 @@ def mimax_evaluator(env: Any, objective: Objective, *, num_latents: int = 10,
 
 def dmin_evaluator(env: Any, objective: Objective, *, num_episodes: int = 10,
                    episode_length: int = 1000, action_repeat: int = 1, last_steps: int = 500,
-                   every: int = 10) -> Callable:
+                   every: int = 10, deterministic: bool = False) -> Callable:
   """``(policy, params, key) -> {"eval/energy_distance"}`` for a D-min objective: the energy
   distance between the policy's indexed states (``num_episodes`` episodes, every ``every``-th of
-  the last ``last_steps`` steps) and the target samples."""
+  the last ``last_steps`` steps, actions sampled unless ``deterministic``) and the target samples."""
   _family(objective, "dmin", "dmin_evaluator")
   indices = np.asarray(objective.info["obs_indices"])
   target = jnp.asarray(objective.info["target"].samples)[:, :len(indices)]
@@ -148,7 +156,8 @@ def dmin_evaluator(env: Any, objective: Objective, *, num_episodes: int = 10,
   def evaluate(policy, params, key):
     states = rollout(env, policy, params, jnp.zeros((1, 0)), key,
                      episodes_per_latent=num_episodes, episode_length=episode_length,
-                     action_repeat=action_repeat, conditions_policy=False)
+                     action_repeat=action_repeat, conditions_policy=False,
+                     deterministic=deterministic)
     x = states[0, :, -last_steps:][:, ::every][..., indices].reshape(-1, len(indices))
     return {"eval/energy_distance": particle.energy_distance(x, target)}
 

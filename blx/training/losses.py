@@ -11,7 +11,7 @@ __all__ = ["gae", "clipped_surrogate"]
 
 def gae(reward_t: jax.Array, value_t: jax.Array, next_value_t: jax.Array,
         termination_t: jax.Array, done_t: jax.Array, *, discount: float,
-        lam: float) -> tuple[jax.Array, jax.Array]:
+        lam: float, known_t: jax.Array | None = None) -> tuple[jax.Array, jax.Array]:
   """Generalised advantage estimation over one sequence ``[T]`` (Schulman et al., 2016).
 
       delta_t = r_t + discount * (1 - term_t) * V(s'_t) - V(s_t)
@@ -21,12 +21,19 @@ def gae(reward_t: jax.Array, value_t: jax.Array, next_value_t: jax.Array,
   truncation (done but not terminated) bootstraps from V(s'_t); a termination does not. The
   recursion stops at every episode end.
 
+  ``known_t`` (optional, 1 or 0) marks where ``next_value_t`` really is V(s'_t). Where it is 0 (a
+  truncation inside a sequence whose next entry is already the reset state) delta_t is set to 0,
+  so A_t = 0 and the value target is V(s_t) itself: the step teaches nothing, as in Brax.
+
   Returns:
     ``(advantages [T], value targets [T] = A_t + V(s_t))``.
   """
   chex.assert_rank([reward_t, value_t, next_value_t, termination_t, done_t], 1)
   chex.assert_equal_shape([reward_t, value_t, next_value_t, termination_t, done_t])
   delta = reward_t + discount * (1.0 - termination_t) * next_value_t - value_t
+  if known_t is not None:
+    chex.assert_equal_shape([known_t, delta])
+    delta = delta * known_t
 
   def backward(next_advantage, inputs):
     delta_t, done = inputs

@@ -73,7 +73,11 @@ class Trainer(NamedTuple):
   Attributes:
     init: ``key -> TrainState``.
     chunk: ``TrainState -> (TrainState, metrics)``, ``iterations_per_chunk`` iterations; metrics have
-      a leading ``[iterations_per_chunk]`` axis.
+      a leading ``[iterations_per_chunk]`` axis. One iteration is ``update(*collect(state))``.
+    collect: ``TrainState -> (TrainState, Rollout)``: the rollout half of an iteration (policy,
+      physics, the objective's reward); sequences ``[num_unrolls * num_envs, unroll_length]``.
+    update: ``(TrainState, Rollout) -> (TrainState, metrics)``: the learning half (normaliser,
+      PPO and objective losses, SGD). Profilers time the halves apart.
     evaluate: ``(TrainState, key) -> metrics`` from deterministic episodes on fresh envs.
     train: ``key -> (TrainState, metrics)``, the whole run: ``num_chunks`` chunks, each followed by an
       evaluation; metrics have a leading ``[num_chunks]`` axis.
@@ -83,6 +87,8 @@ class Trainer(NamedTuple):
 
   init: Callable[[jax.Array], TrainState]
   chunk: Callable[[TrainState], tuple[TrainState, dict]]
+  collect: Callable[[TrainState], tuple[TrainState, "Rollout"]]
+  update: Callable[[TrainState, "Rollout"], tuple[TrainState, dict]]
   evaluate: Callable[[TrainState, jax.Array], dict]
   train: Callable[[jax.Array], tuple[TrainState, dict]]
   policy: Callable[..., jax.Array]
@@ -173,14 +179,17 @@ def make_trainer(env: Any, objective: Objective, config: PPOConfig) -> Trainer:
                       iteration=jnp.zeros((), jnp.int32))
 
   def env_step(params: Params, stats, z, env_state: State, key: jax.Array):
-    logits = policy_net.apply(params.policy, policy_input(stats, env_state.obs, z))
-    raw = networks.sample_raw_action(logits, key)
-    action = jnp.tanh(raw)
-    next_state = jax.vmap(train_env.step)(env_state, action)
+    with jax.named_scope("policy"):
+      logits = policy_net.apply(params.policy, policy_input(stats, env_state.obs, z))
+      raw = networks.sample_raw_action(logits, key)
+      action = jnp.tanh(raw)
+    with jax.named_scope("physics"):
+      next_state = jax.vmap(train_env.step)(env_state, action)
     next_obs = next_state.info["pre_reset_obs"]
     transition = Transition(env_state.obs, action, next_obs, next_state.reward, z)
-    reward = jax.vmap(objective.reward, (None, 0))(
-        jax.lax.stop_gradient(params.objective), transition)
+    with jax.named_scope("objective"):
+      reward = jax.vmap(objective.reward, (None, 0))(
+          jax.lax.stop_gradient(params.objective), transition)
     step = Rollout(env_state.obs, raw, action, networks.log_prob_raw(logits, raw), next_obs, reward,
                    next_state.reward, next_state.done, next_state.info["truncation"], z)
     return shard(next_state), step
@@ -189,16 +198,23 @@ def make_trainer(env: Any, objective: Objective, config: PPOConfig) -> Trainer:
     """PPO loss + objective loss on sequences ``[B, T]``; returns (scalar, metrics)."""
     entropy_key, obj_key = jax.random.split(key)
     x = policy_input(stats, batch.obs, batch.z)
-    x_next = policy_input(stats, batch.next_obs, batch.z)
-    logits = policy_net.apply(params.policy, x)
-    value = value_net.apply(params.value, x)[..., 0]
-    next_value = value_net.apply(params.value, x_next)[..., 0]
+    with jax.named_scope("policy"):
+      logits = policy_net.apply(params.policy, x)
+    with jax.named_scope("value"):
+      # One pass over s_0 .. s_{T-1} and the true s'_{T-1}: V(s'_t) = V(s_{t+1}) inside the
+      # sequence, except after an auto-reset (a done step), where s_{t+1} is the new episode's
+      # first state. Terminations do not bootstrap; a truncation there gets delta 0 (known_t).
+      x_last = policy_input(stats, batch.next_obs[:, -1:], batch.z[:, -1:])
+      values = value_net.apply(params.value, jnp.concatenate([x, x_last], axis=1))[..., 0]
+    value, next_value = values[:, :-1], values[:, 1:]
     termination = batch.done * (1.0 - batch.truncation)
+    inside = jnp.arange(batch.done.shape[1]) < batch.done.shape[1] - 1
+    known = 1.0 - batch.truncation * inside
     advantage, target = jax.vmap(
-        lambda r, v, nv, t, d: losses.gae(r, v, nv, t, d, discount=c.discounting,
-                                          lam=c.gae_lambda))(
+        lambda r, v, nv, t, d, k: losses.gae(r, v, nv, t, d, discount=c.discounting,
+                                             lam=c.gae_lambda, known_t=k))(
         batch.reward * c.reward_scaling, jax.lax.stop_gradient(value),
-        jax.lax.stop_gradient(next_value), termination, batch.done)
+        jax.lax.stop_gradient(next_value), termination, batch.done, known)
     advantage = (advantage - advantage.mean()) / (advantage.std() + 1e-8)
     log_prob = networks.log_prob_raw(logits, batch.raw_action)
     policy_loss = losses.clipped_surrogate(log_prob, batch.log_prob, advantage,
@@ -206,8 +222,9 @@ def make_trainer(env: Any, objective: Objective, config: PPOConfig) -> Trainer:
     value_loss = 0.25 * jnp.mean((value - target) ** 2)
     entropy = jnp.mean(networks.entropy(logits, entropy_key))
     entropy_loss = -c.entropy_cost * entropy
-    objective_loss, objective_metrics = objective.loss(params.objective, _transitions(batch),
-                                                       obj_key)
+    with jax.named_scope("objective"):
+      objective_loss, objective_metrics = objective.loss(params.objective, _transitions(batch),
+                                                         obj_key)
     total = policy_loss + value_loss + entropy_loss + objective_loss
     metrics = {"loss/total": total, "loss/policy": policy_loss, "loss/value": value_loss,
                "loss/entropy": entropy_loss, "loss/objective": objective_loss,
@@ -226,8 +243,9 @@ def make_trainer(env: Any, objective: Objective, config: PPOConfig) -> Trainer:
     metrics["grad_norm"] = optax.global_norm(grads)
     return (params, opt_state, stats), metrics
 
-  def iteration(state: TrainState, _):
-    key, rollout_key, sgd_key = jax.random.split(state.key, 3)
+  def collect(state: TrainState) -> tuple[TrainState, Rollout]:
+    """``num_unrolls`` x ``unroll_length`` steps of every env: sequences ``[U * N, T, ...]``."""
+    key, rollout_key = jax.random.split(state.key)
 
     def unroll(env_state, key):
       def one(env_state, key):
@@ -239,6 +257,11 @@ def make_trainer(env: Any, objective: Objective, config: PPOConfig) -> Trainer:
     # [U, T, N, ...] -> [U * N, T, ...]: sequences of unroll_length steps.
     data = jax.tree.map(lambda x: jnp.swapaxes(x, 1, 2).reshape(
         (c.num_unrolls * c.num_envs, c.unroll_length) + x.shape[3:]), data)
+    return state.replace(env_state=env_state, key=key), data
+
+  def update(state: TrainState, data: Rollout) -> tuple[TrainState, dict]:
+    """Normaliser update, then ``num_updates_per_batch`` epochs of minibatch SGD on ``data``."""
+    key, sgd_key = jax.random.split(state.key)
     normalizer = state.normalizer
     if c.normalize_observations:
       normalizer = networks.update_stats(normalizer, data.obs.reshape(-1, obs_size))
@@ -264,11 +287,16 @@ def make_trainer(env: Any, objective: Objective, config: PPOConfig) -> Trainer:
                                                 for x in jax.tree.leaves(params)])),
         "nonfinite/observation": ~(jnp.isfinite(data.obs).all() & jnp.isfinite(data.next_obs).all()),
     })
-    state = state.replace(params=params, opt_state=opt_state, normalizer=normalizer,
-                          env_state=env_state, key=key,
+    state = state.replace(params=params, opt_state=opt_state, normalizer=normalizer, key=key,
                           env_steps=state.env_steps + c.env_steps_per_iteration,
                           iteration=state.iteration + 1)
     return state, metrics
+
+  def iteration(state: TrainState, _):
+    with jax.named_scope("collect"):
+      state, data = collect(state)
+    with jax.named_scope("update"):
+      return update(state, data)
 
   def chunk(state: TrainState):
     return jax.lax.scan(iteration, state, None, length=iterations_per_chunk)
@@ -311,7 +339,7 @@ def make_trainer(env: Any, objective: Objective, config: PPOConfig) -> Trainer:
 
     return jax.lax.scan(one_chunk, state, jax.random.split(eval_key, num_chunks))
 
-  return Trainer(init=init, chunk=chunk, evaluate=evaluate, train=train, policy=policy,
+  return Trainer(init=init, chunk=chunk, collect=collect, update=update, evaluate=evaluate, train=train, policy=policy,
                  num_chunks=num_chunks, iterations_per_chunk=iterations_per_chunk, config=c)
 
 

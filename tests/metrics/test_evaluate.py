@@ -12,9 +12,19 @@ from blx import metrics, objectives
 from tests.conftest import make_env
 
 
-def go_to(params, obs, z):
-  """A PD controller that drives the point to position z (it settles within about 40 steps)."""
+def go_to(params, obs, z, key=None, deterministic=False):
+  """A PD controller that drives the point to position z (it settles within about 40 steps); it
+  ignores the evaluation's sampling key."""
   return jnp.clip(params["gain"] * (z - obs[:, :2]) - 0.5 * obs[:, 2:], -1.0, 1.0)
+
+
+def noisy_go_to(params, obs, z, key=None, deterministic=False):
+  """go_to with uniform action noise of amplitude params["noise"] unless deterministic."""
+  action = go_to(params, obs, z)
+  if deterministic:
+    return action
+  return jnp.clip(action + params["noise"] * jax.random.uniform(key, action.shape, minval=-1.0),
+                  -1.0, 1.0)
 
 
 def test_mimax_helper_on_skills_that_reach_their_goals():
@@ -45,7 +55,7 @@ def test_dmin_helper_matches_a_direct_energy_distance():
   env = make_env("point")
   obj = objectives.gail(obs_indices="pos_xy", env=env, obs_scale=8.0)  # modes (+-4, 0)
   params = {"gain": 2.0, "objective": {}}
-  policy = lambda params, obs, z: go_to(params, obs, jnp.array([4.0, 0.0]))
+  policy = lambda params, obs, z, **_: go_to(params, obs, jnp.array([4.0, 0.0]))
   out = metrics.evaluate_dmin(env, obj, params, jax.random.PRNGKey(0), policy=policy,
                               num_episodes=2, episode_length=100, last_steps=20, every=1)
   # Settled at (4, 0): X is 40 copies of (4, 0), so E||X - X'|| = 0 and
@@ -54,3 +64,48 @@ def test_dmin_helper_matches_a_direct_energy_distance():
   expected = (2 * np.linalg.norm(y - [4.0, 0.0], axis=-1).mean()
               - np.linalg.norm(y[:, None] - y[None], axis=-1).mean())
   np.testing.assert_allclose(out["eval/energy_distance"], expected, rtol=1e-3)
+
+
+def test_evaluation_samples_actions_unless_deterministic():
+  # Braxlines evaluates the policy's sampled actions. A policy whose samples carry noise spreads
+  # each skill over several bins (H(s|z) > 0, lower MI); its mean action reproduces the exact
+  # log 10 of the noiseless skills. Fresh noise every step (not one key for the whole episode)
+  # keeps the settled point moving.
+  env = make_env("point")
+  obj = objectives.gcrl(obs_indices="pos_xy", env=env, obs_scale=5.0)
+  params = {"gain": 2.0, "noise": 1.0, "objective": {}}
+  settings = dict(policy=noisy_go_to, num_latents=10, episodes_per_latent=2, episode_length=100,
+                  last_steps=20, bins=1001)
+  sampled = metrics.evaluate_mimax(env, obj, params, jax.random.PRNGKey(0), **settings)
+  mean = metrics.evaluate_mimax(env, obj, params, jax.random.PRNGKey(0), deterministic=True,
+                                **settings)
+  np.testing.assert_allclose(mean["eval/mi"], math.log(10), rtol=1e-5)
+  assert sampled["eval/conditional_entropy"] > 1.0
+  assert sampled["eval/mi"] < mean["eval/mi"] - 0.1
+  states = metrics.rollout(env, noisy_go_to, params, jnp.eye(2), jax.random.PRNGKey(1),
+                           episodes_per_latent=1, episode_length=100)
+  late = np.asarray(states[:, 0, -20:, :2])
+  assert (np.abs(np.diff(late, axis=1)).max(axis=(1, 2)) > 1e-3).all()
+
+
+class _Falls:
+  """A stand-in env whose observation counts steps and which terminates at step 3."""
+
+  observation_size, action_size = 1, 1
+
+  def reset(self, key):
+    from blx.envs.env import State
+    return State(data=jnp.zeros(()), obs=jnp.zeros(1), reward=jnp.zeros(()), done=jnp.zeros(()))
+
+  def step(self, state, action):
+    t = state.data + 1.0
+    return state.replace(data=t, obs=t[None], done=(t >= 3.0).astype(jnp.float32))
+
+
+def test_rollout_goes_on_after_termination_as_braxlines():
+  # Braxlines' evaluation envs do not auto-reset and keep stepping a terminated episode: the
+  # states after the fall are recorded as they come, not frozen at the fall.
+  states = metrics.rollout(_Falls(), lambda params, obs, z, **_: jnp.zeros((obs.shape[0], 1)), {},
+                           jnp.zeros((1, 0)), jax.random.PRNGKey(0), episodes_per_latent=2,
+                           episode_length=6, conditions_policy=False)
+  np.testing.assert_array_equal(states[0, :, :, 0], [[1, 2, 3, 4, 5, 6]] * 2)

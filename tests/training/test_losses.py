@@ -23,6 +23,18 @@ def test_gae_hand_computed_with_truncation_and_termination():
   np.testing.assert_allclose(target, [3.97, 5.6, 3.0], rtol=1e-6)
 
 
+def test_gae_unknown_bootstrap_teaches_nothing_at_that_step():
+  # As above, but V(s'_1) is unknown (known_t = 0: a mid-sequence truncation whose next entry is
+  # already the reset state): delta_1 = 0, so A_1 = 0, its target is V(s_1) = 1.0, and A_0 no
+  # longer receives 0.45 * A_1.
+  r, v = jnp.array([1.0, 2.0, 3.0]), jnp.array([0.5, 1.0, 1.5])
+  nv = jnp.array([1.0, 123.0, 7.0])
+  adv, target = gae(r, v, nv, jnp.array([0.0, 0.0, 1.0]), jnp.array([0.0, 1.0, 1.0]),
+                    discount=0.9, lam=0.5, known_t=jnp.array([1.0, 0.0, 1.0]))
+  np.testing.assert_allclose(adv, [1.4, 0.0, 1.5], rtol=1e-6)
+  np.testing.assert_allclose(target, [1.9, 1.0, 3.0], rtol=1e-6)
+
+
 def test_clipped_surrogate_hand_computed():
   logp_old = jnp.zeros(3)
   logp = jnp.log(jnp.array([1.5, 0.5, 1.1]))

@@ -62,6 +62,22 @@ def test_second_call_of_the_train_step_does_not_recompile():
   assert chunk._cache_size() == 1
 
 
+def test_an_iteration_is_update_after_collect():
+  # The halves a profiler times apart compose to exactly the training step.
+  trainer = training.make_trainer(envs.create("point"), reach_latent(), SMALL)
+  state = jax.jit(trainer.init)(jax.random.PRNGKey(0))
+  chunked, _ = jax.jit(trainer.chunk)(state)
+  collect, update = jax.jit(trainer.collect), jax.jit(trainer.update)
+  manual = state
+  for _ in range(trainer.iterations_per_chunk):
+    manual, data = collect(manual)
+    assert data.obs.shape[:2] == (SMALL.num_unrolls * SMALL.num_envs, SMALL.unroll_length)
+    manual, _ = update(manual, data)
+  assert int(manual.iteration) == int(chunked.iteration) == trainer.iterations_per_chunk
+  for a, b in zip(jax.tree.leaves(manual.params), jax.tree.leaves(chunked.params)):
+    np.testing.assert_allclose(a, b, rtol=1e-4, atol=1e-5)
+
+
 def test_objective_hook_replaces_the_reward_and_trains_its_params():
   # `point` has no task reward: anything learned comes from the objective's reward.
   config = training.ppo_defaults("point", num_timesteps=60_000)

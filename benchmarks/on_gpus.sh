@@ -1,0 +1,43 @@
+#!/usr/bin/env bash
+# Runs one queue of commands per GPU, side by side, all ending by a common deadline.
+#
+#   DEADLINE_S=560 bash benchmarks/on_gpus.sh "cmd A1 ;; cmd A2" "cmd B1" ...
+#
+# Argument i is the queue of GPU i (CUDA_VISIBLE_DEVICES=i): commands separated by ";;" run one
+# after another, each killed when the deadline (seconds from start) passes. Output goes to
+# $LOG_DIR/gpu<i>.log (default $OUT, else the working directory). The exit status is 0 when every
+# command finished in time with status 0.
+set -u
+deadline=$(( $(date +%s) + ${DEADLINE_S:-560} ))
+log_dir=${LOG_DIR:-${OUT:-.}}
+mkdir -p "$log_dir"
+run_queue() {
+  local gpu=$1 queue=$2 status=0 cmd left
+  while [ -n "$queue" ]; do
+    cmd=${queue%%;;*}
+    if [ "$cmd" = "$queue" ]; then queue=""; else queue=${queue#*;;}; fi
+    left=$(( deadline - $(date +%s) ))
+    if [ "$left" -le 5 ]; then
+      echo "[on_gpus] gpu $gpu: no time left for: $cmd"; status=124; continue
+    fi
+    echo "[on_gpus] gpu $gpu: $cmd (at most ${left}s)"
+    start=$(date +%s)
+    CUDA_VISIBLE_DEVICES=$gpu timeout "$left" bash -c "$cmd"
+    rc=$?
+    echo "[on_gpus] gpu $gpu: status $rc after $(( $(date +%s) - start ))s"
+    [ "$rc" -ne 0 ] && status=$rc
+  done
+  return $status
+}
+pids=()
+gpu=0
+for queue in "$@"; do
+  run_queue "$gpu" "$queue" >"$log_dir/gpu$gpu.log" 2>&1 &
+  pids+=($!)
+  gpu=$(( gpu + 1 ))
+done
+overall=0
+for pid in "${pids[@]}"; do
+  wait "$pid" || overall=1
+done
+exit $overall
