@@ -8,6 +8,10 @@
 # $LOG_DIR/gpu<i>.log (default $OUT, else the working directory). The exit status is 0 when every
 # command finished in time with status 0.
 set -u
+if [ $# -eq 0 ]; then
+  echo "usage: DEADLINE_S=560 bash benchmarks/on_gpus.sh \"queue of GPU 0\" [\"queue of GPU 1\" ...]" >&2
+  exit 2
+fi
 deadline=$(( $(date +%s) + ${DEADLINE_S:-560} ))
 log_dir=${LOG_DIR:-${OUT:-.}}
 mkdir -p "$log_dir"
