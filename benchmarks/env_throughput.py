@@ -12,13 +12,16 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
+import sys
 import time
 
 import jax
-import jax.numpy as jnp
-from mujoco import mjx
 
-from blx import envs
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import common  # noqa: E402
+
+from blx import envs  # noqa: E402
 
 
 def _time(fn, *args, repeats=3):
@@ -47,14 +50,7 @@ def measure(name: str, num_envs: int, steps: int) -> dict:
       return s, s.reward.sum()
     return jax.lax.scan(one, state, actions)[1].sum()
 
-  @jax.jit
-  def run_raw(data, actions):
-    def one(d, a):
-      d = d.replace(ctrl=a)
-      d = jax.vmap(lambda x: jax.lax.fori_loop(
-          0, env.substeps, lambda _, y: mjx.step(env.mjx_model, y), x))(d)
-      return d, d.qpos.sum()
-    return jax.lax.scan(one, data, actions)[1].sum()
+  run_raw = common.raw_physics_runner(env)
 
   jax.block_until_ready(run_env(state, actions))
   compile_s = time.perf_counter() - t0
@@ -79,14 +75,11 @@ def main():
     rows.append(row)
     if args.json:
       print(json.dumps(row), flush=True)
-  print(f"\ndevice: {jax.devices()[0].device_kind}; jax {jax.__version__}; num_envs {args.num_envs}")
-  print("| env | env steps/s | raw mjx.step (env-step equiv.)/s | raw physics steps/s | env/raw | "
-        "compile s |")
-  print("| --- | ---: | ---: | ---: | ---: | ---: |")
-  for r in rows:
-    print(f"| {r['env']} | {r['env_steps_per_s']:,.0f} | {r['raw_env_steps_per_s']:,.0f} | "
-          f"{r['raw_physics_steps_per_s']:,.0f} | {r['ratio']:.2f} | {r['compile_s']:.1f} |")
-
+  common.print_table(f"; num_envs {args.num_envs}", rows, [
+      ("env", "env", ""), ("env steps/s", "env_steps_per_s", ",.0f"),
+      ("raw mjx.step (env-step equiv.)/s", "raw_env_steps_per_s", ",.0f"),
+      ("raw physics steps/s", "raw_physics_steps_per_s", ",.0f"), ("env/raw", "ratio", ".2f"),
+      ("compile s", "compile_s", ".1f")])
 
 if __name__ == "__main__":
   main()

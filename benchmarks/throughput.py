@@ -23,9 +23,9 @@ import sys
 import time
 
 import jax
-import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import common  # noqa: E402
 import train_throughput  # noqa: E402
 
 from blx import envs, metrics, objectives, training  # noqa: E402
@@ -81,15 +81,16 @@ def main():
       rows.append(row)
       print(json.dumps(row), flush=True)
   mi = time_to_mi(args.mi_steps, args.mi_envs) if args.mi_steps else None
-  print(f"\ndevice: {jax.devices()[0].device_kind}; jax {jax.__version__}")
   if rows:
-    print("| num_envs | raw env steps/s | task PPO | DIAYN | DIAYN/raw | DIAYN/task | "
-          "start to first step s |")
-    print("| ---: | ---: | ---: | ---: | ---: | ---: | ---: |")
     for r in rows:
-      print(f"| {r['num_envs']} | {r['raw']:,.0f} | {r['task']:,.0f} | {r['diayn']:,.0f} | "
-            f"{r['diayn'] / r['raw']:.2f} | {r['diayn'] / r['task']:.2f} | "
-            f"{r['diayn_first_step_s']:.1f} |")
+      r["diayn_per_raw"], r["diayn_per_task"] = r["diayn"] / r["raw"], r["diayn"] / r["task"]
+    common.print_table("", rows, [
+        ("num_envs", "num_envs", ""), ("raw env steps/s", "raw", ",.0f"),
+        ("task PPO", "task", ",.0f"), ("DIAYN", "diayn", ",.0f"),
+        ("DIAYN/raw", "diayn_per_raw", ".2f"), ("DIAYN/task", "diayn_per_task", ".2f"),
+        ("start to first step s", "diayn_first_step_s", ".1f")], first="---:")
+  else:
+    print(f"\ndevice: {jax.devices()[0].device_kind}; jax {jax.__version__}")
   if mi:
     print(f"DIAYN ant {mi['num_envs']} envs: MI curve {[round(r['mi'], 3) for r in mi['rows']]}")
     print(f"time to MI >= {PAPER_MI}: {mi['time_to_paper_mi_s']} s "

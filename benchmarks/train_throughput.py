@@ -12,31 +12,28 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
+import sys
 import time
 
 import jax
 import jax.numpy as jnp
-from mujoco import mjx
 
-from blx import envs, training
-from blx.objectives import task
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import common  # noqa: E402
+
+from blx import envs, training  # noqa: E402
+from blx.objectives import task  # noqa: E402
 
 
 def raw_physics(env, num_envs: int, steps: int = 50) -> float:
   base = envs.unwrap(env)
   data = jax.jit(jax.vmap(base.reset))(jax.random.split(jax.random.PRNGKey(0), num_envs)).data
-
-  @jax.jit
-  def run(data):
-    def one(d, _):
-      d = jax.vmap(lambda x: jax.lax.fori_loop(
-          0, base.substeps, lambda _, y: mjx.step(base.mjx_model, y), x))(d)
-      return d, None
-    return jax.lax.scan(one, data, None, length=steps)[0].qpos.sum()
-
-  jax.block_until_ready(run(data))
+  actions = jnp.zeros((steps, num_envs, base.action_size))  # ctrl stays 0, as at reset
+  run = common.raw_physics_runner(env)
+  jax.block_until_ready(run(data, actions))
   t = time.perf_counter()
-  jax.block_until_ready(run(data))
+  jax.block_until_ready(run(data, actions))
   return num_envs * steps / (time.perf_counter() - t)
 
 
@@ -82,14 +79,11 @@ def main():
     row = measure(args.env, n, args.iterations)
     rows.append(row)
     print(json.dumps(row), flush=True)
-  print(f"\ndevice: {jax.devices()[0].device_kind}; jax {jax.__version__}")
-  print("| env | num_envs | train env steps/s | raw physics env steps/s | train/raw | "
-        "start to first step s |")
-  print("| --- | ---: | ---: | ---: | ---: | ---: |")
-  for r in rows:
-    print(f"| {r['env']} | {r['num_envs']} | {r['train_env_steps_per_s']:,.0f} | "
-          f"{r['raw_env_steps_per_s']:,.0f} | {r['ratio']:.2f} | {r['start_to_first_step_s']:.1f} |")
-
+  common.print_table("", rows, [
+      ("env", "env", ""), ("num_envs", "num_envs", ""),
+      ("train env steps/s", "train_env_steps_per_s", ",.0f"),
+      ("raw physics env steps/s", "raw_env_steps_per_s", ",.0f"), ("train/raw", "ratio", ".2f"),
+      ("start to first step s", "start_to_first_step_s", ".1f")])
 
 if __name__ == "__main__":
   main()

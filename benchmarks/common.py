@@ -1,0 +1,39 @@
+"""What the benchmark scripts share: raw ``mjx.step`` on an env's model, and their Markdown tables."""
+
+from __future__ import annotations
+
+from typing import Callable, Sequence
+
+import jax
+from mujoco import mjx
+
+from blx import envs
+
+
+def raw_physics_runner(env) -> Callable:
+  """Jitted ``(data [N], actions [T, N, A]) -> scalar``: T env steps of bare ``mjx.step`` on the
+  env's compiled model, ``substeps`` physics steps each with the action as ``ctrl``, vmapped as the
+  env is. The scalar (a sum of qpos) only forces the work."""
+  base = envs.unwrap(env)
+
+  @jax.jit
+  def run(data, actions):
+    def one(d, a):
+      d = d.replace(ctrl=a)
+      d = jax.vmap(lambda x: jax.lax.fori_loop(
+          0, base.substeps, lambda _, y: mjx.step(base.mjx_model, y), x))(d)
+      return d, d.qpos.sum()
+    return jax.lax.scan(one, data, actions)[1].sum()
+
+  return run
+
+
+def print_table(header: str, rows: Sequence[dict], columns: Sequence[tuple[str, str, str]],
+                first: str = "---") -> None:
+  """A device line (``header`` appended), then a Markdown table with one ``(label, key, format
+  spec)`` per column; the first column is aligned by ``first``, the others right."""
+  print(f"\ndevice: {jax.devices()[0].device_kind}; jax {jax.__version__}{header}")
+  print("| " + " | ".join(label for label, _, _ in columns) + " |")
+  print(f"| {first} |" + " ---: |" * (len(columns) - 1))
+  for r in rows:
+    print("| " + " | ".join(format(r[key], spec) for _, key, spec in columns) + " |")
