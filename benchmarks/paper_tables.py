@@ -1,7 +1,8 @@
 """The paper's Ant rows (Tables 3 and 4) through the sweep machinery of ``blx sweep``.
 
-    python benchmarks/paper_tables.py [--seeds 5] [--only gcrl|mimax|dmin] [--objective diayn]
+    python benchmarks/paper_tables.py [--seeds 10] [--only gcrl|mimax|dmin] [--objective diayn]
                                       [--collect] [--out sweeps/paper]
+    python benchmarks/paper_tables.py --compare DIR   # every DIR/**/eval.json against the paper
 
 ``--objective`` trains only that algorithm's point (one process per GPU:
 ``CUDA_VISIBLE_DEVICES=i python benchmarks/paper_tables.py --objective NAME &`` for each), and
@@ -10,24 +11,79 @@
 MI-max: gcrl, diayn, cdiayn, diayn_full on the ant's xy velocity, obs_scale 5, spectral norm on;
 D-min: gail, gail2, airl, mle to the bimodal xy-velocity target (modes (+-4, 0), std 0.8), obs_scale
 8, spectral norm off. PPO: the ant row with twice its steps (60 M), seeds vmapped in one program per
-algorithm. Writes summary.md / .csv / .tex per sweep and prints them beside the paper's values.
+algorithm. Writes summary.md / .csv / .tex per sweep and prints them beside the paper's values, then a
+verdict per row and metric: Welch's t-test against the paper's mean and std over its 10 seeds, and
+whether blx reaches the paper's mean - 1 std (in the direction where larger is better).
 """
 
 from __future__ import annotations
 
 import argparse
+import glob
+import json
+import math
 import os
 
 from blx.experiments import sweep
 
+# The paper's Ant rows (Tables 3 and 4; 10 seeds): metric -> (mean, std). -LGR and -energy distance
+# as printed; larger is better for every one.
 PAPER = {
-    "diayn": "1.115 ± 0.268 | 5.558 ± 0.286 | -2.260 ± 0.539",
-    "diayn_full": "0.034 ± 0.006 | 5.044 ± 0.039 | -3.010 ± 0.010",
-    "gcrl": "1.218 ± 0.192 | 6.066 ± 0.051 | -2.074 ± 0.232",
-    "cdiayn": "0.750 ± 0.185 | 5.253 ± 0.270 | -2.885 ± 0.291",
-    "airl": "-2.588 ± 1.194", "gail": "-0.802 ± 0.460", "gail2": "-2.898 ± 0.946",
-    "mle": "-1.829 ± 0.573",
+    "diayn": {"eval/mi": (1.115, 0.268), "eval/entropy": (5.558, 0.286), "-eval/lgr": (-2.260, 0.539)},
+    "diayn_full": {"eval/mi": (0.034, 0.006), "eval/entropy": (5.044, 0.039),
+                   "-eval/lgr": (-3.010, 0.010)},
+    "gcrl": {"eval/mi": (1.218, 0.192), "eval/entropy": (6.066, 0.051), "-eval/lgr": (-2.074, 0.232)},
+    "cdiayn": {"eval/mi": (0.750, 0.185), "eval/entropy": (5.253, 0.270),
+               "-eval/lgr": (-2.885, 0.291)},
+    "airl": {"-eval/energy_distance": (-2.588, 1.194)},
+    "gail": {"-eval/energy_distance": (-0.802, 0.460)},
+    "gail2": {"-eval/energy_distance": (-2.898, 0.946)},
+    "mle": {"-eval/energy_distance": (-1.829, 0.573)},
 }
+PAPER_SEEDS = 10
+
+
+def welch(values: list[float], mean: float, std: float, n: int = PAPER_SEEDS):
+  """Welch's t-test of ``values`` against a sample of ``n`` with ``mean`` and (population) ``std``:
+  ``(t, degrees of freedom, two-sided p)``. Both stds are made sample stds (ddof 1) first."""
+  from scipy import stats
+  m = len(values)
+  mu = sum(values) / m
+  var = sum((v - mu) ** 2 for v in values) / (m - 1)
+  var_p = std**2 * n / (n - 1)
+  se2 = var / m + var_p / n
+  t = (mu - mean) / math.sqrt(se2)
+  dof = se2**2 / ((var / m) ** 2 / (m - 1) + (var_p / n) ** 2 / (n - 1))
+  return t, dof, 2 * stats.t.sf(abs(t), dof)
+
+
+def verdicts(eval_json: dict) -> list[str]:
+  """Markdown rows: metric, blx mean ± std (n), paper, Welch t and p, and whether blx reaches the
+  paper's mean - std."""
+  name = eval_json["objective"]
+  lines = []
+  for key, (mean, std) in PAPER.get(name, {}).items():
+    sign = -1.0 if key.startswith("-") else 1.0
+    values = [sign * v for v in eval_json["per_seed"].get(key.lstrip("-"), [])]
+    if not values:
+      continue
+    mu = sum(values) / len(values)
+    sd = math.sqrt(sum((v - mu) ** 2 for v in values) / len(values))
+    t, dof, p = welch(values, mean, std)
+    ok = "yes" if mu >= mean - std else "**no**"
+    lines.append(f"| {name} | {key} | {mu:.3f} ± {sd:.3f} ({len(values)}) | {mean:.3f} ± {std:.3f} "
+                 f"| {t:+.2f} | {p:.3f} | {ok} |")
+  return lines
+
+
+def compare(directory: str) -> str:
+  """The verdict table for every ``eval.json`` under ``directory``."""
+  rows = ["| algorithm | metric | blx (seeds) | paper (10) | Welch t | p | >= paper mean - std |",
+          "| --- | --- | ---: | ---: | ---: | ---: | --- |"]
+  for path in sorted(glob.glob(os.path.join(directory, "**", "*eval.json"), recursive=True)):
+    with open(path) as f:
+      rows += verdicts(json.load(f))
+  return "\n".join(rows)
 
 
 def specs(seeds: int) -> dict:
@@ -45,12 +101,17 @@ def specs(seeds: int) -> dict:
 
 def main():
   parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-  parser.add_argument("--seeds", type=int, default=5)
+  parser.add_argument("--seeds", type=int, default=10)
   parser.add_argument("--only", choices=["gcrl", "mimax", "dmin"], default=None)
   parser.add_argument("--objective", default=None, help="train only this algorithm's point")
   parser.add_argument("--collect", action="store_true", help="only gather evaluated points")
   parser.add_argument("--out", default="sweeps/paper")
+  parser.add_argument("--compare", default=None, metavar="DIR",
+                      help="only print the verdicts for the eval.json files under DIR")
   args = parser.parse_args()
+  if args.compare:
+    print(compare(args.compare))
+    return
   known = [o for spec in specs(1).values() for o in spec["objective"]]
   if args.objective and args.objective not in known:
     parser.error(f"--objective {args.objective!r}: valid ones are {known}")
@@ -65,10 +126,9 @@ def main():
     if args.objective and args.objective not in spec["objective"]:
       continue
     out = os.path.join(args.out, family)
-    rows = sweep.run_sweep(spec, out, select=select)
+    sweep.run_sweep(spec, out, select=select)
     print(open(os.path.join(out, "summary.md")).read())
-    for row in rows:
-      print(f"paper {row['objective']}: {PAPER.get(row['objective'], '-')}")
+    print(compare(out))
 
 
 if __name__ == "__main__":

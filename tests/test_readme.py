@@ -20,7 +20,7 @@ def test_readme_block_runs(index, capsys):
   out = capsys.readouterr().out
   assert out.strip(), "the block prints its results"
   if index == 0:
-    assert out.splitlines()[0] == "51 12" and "(17, 18)" in out
+    assert out.splitlines()[0] == "129 12" and "(17, 18)" in out
   if "evaluate_mimax" in BLOCKS[index]:
     # 10 skills settled at distinct goals: MI near log 10 (two may share one of the 1000 bins).
     assert 2.1 < float(out.split()[-2]) <= 2.303 and out.split()[-1] == "0.0"

@@ -6,14 +6,14 @@ the root's velocity, the geoms that may take part in contacts, its default obser
 termination rule. The composer prefixes every name with the component's instance name
 (``agent1/torso``) so several copies coexist.
 
-Dimensions follow the standard MuJoCo models (Gymnasium's ``ant.xml``, ``humanoid.xml``,
-``half_cheetah.xml``); the MJCF itself is generated here. ``pro_ant`` generalises the ant to ``N`` legs
-spaced evenly around the torso, as Braxlines' procedural ant does.
+``ant``, ``pro_ant``, ``halfcheetah`` and ``humanoid`` are the paper's Brax v1 bodies
+(``blx.envs.brax_bodies``). The light MuJoCo/Gymnasium models (``ant.xml``, ``humanoid.xml``,
+``half_cheetah.xml``) stay available as ``gym_ant``, ``gym_humanoid`` and ``gym_halfcheetah``; their
+MJCF is generated here.
 """
 
 from __future__ import annotations
 
-import dataclasses
 import inspect
 import math
 from typing import Any, Callable, Mapping
@@ -21,6 +21,7 @@ from typing import Any, Callable, Mapping
 import numpy as np
 
 from blx.envs.mjcf import Element
+from blx.envs.spec import MAX_LEGS, MIN_LEGS, ComponentSpec, Termination
 
 __all__ = [
     "ComponentSpec",
@@ -31,58 +32,6 @@ __all__ = [
     "MIN_LEGS",
     "MAX_LEGS",
 ]
-
-MIN_LEGS = 2
-MAX_LEGS = 16
-
-
-@dataclasses.dataclass(frozen=True)
-class Termination:
-  """Episode end from the root body's pose: height outside ``[min_z, max_z]`` or flipped upside down.
-
-  ``z_offset`` (``term_params`` in a desc) shifts both bounds, e.g. for an ant standing on a ball.
-  """
-
-  min_z: float = -math.inf
-  max_z: float = math.inf
-  check_flip: bool = False
-
-
-@dataclasses.dataclass(frozen=True)
-class ComponentSpec:
-  """What a component contributes to a scene (names unprefixed).
-
-  Attributes:
-    bodies: top-level MJCF ``body`` elements.
-    motors: ``(joint_name, gear)`` for each actuated joint, in action order; actions lie in [-1, 1].
-    root: name of the root body.
-    root_linear: ``{axis: joint}`` giving the root's linear velocity along world axis 0/1/2; a free
-      joint is written ``{-1: joint}`` and gives all three (and the angular velocity).
-    root_angular: ``{axis: hinge_joint}`` for planar roots.
-    colliders: geoms that take part in contacts (explicit pairs, see the composer).
-    root_colliders: the subset of ``colliders`` on the root body (edge ``collide_type='root'``).
-    observers: default observers (see ``blx.envs.observers``).
-    termination: the rule for ending an episode, or None.
-    planar_axes: world axes the root can translate along (``(0, 1)`` for free bodies).
-    friction: sliding friction of this component's colliders.
-  """
-
-  bodies: tuple[Element, ...]
-  motors: tuple[tuple[str, float], ...]
-  root: str
-  root_linear: Mapping[int, str]
-  root_angular: Mapping[int, str] = dataclasses.field(default_factory=dict)
-  colliders: tuple[str, ...] = ()
-  root_colliders: tuple[str, ...] = ()
-  observers: tuple[Any, ...] = ("root_z_joints",)
-  termination: Termination | None = None
-  planar_axes: tuple[int, ...] = (0, 1)
-  friction: float = 1.0
-
-  @property
-  def root_joints(self) -> tuple[str, ...]:
-    return tuple(self.root_linear.values()) + tuple(self.root_angular.values())
-
 
 # --------------------------------------------------------------------------------------------------
 # Ant and procedural ant.
@@ -133,17 +82,10 @@ def _legged_ant(num_legs: int, angle_offset: float) -> ComponentSpec:
   )
 
 
-def ant() -> ComponentSpec:
-  """The standard MuJoCo ant: four legs at 45, 135, 225 and 315 degrees (8 actuators)."""
+def gym_ant() -> ComponentSpec:
+  """The light MuJoCo/Gymnasium ant (0.91 kg, gear 150, damping 1, armature 1, flip termination):
+  four legs at 45, 135, 225 and 315 degrees (8 actuators). Not the paper's body: see ``ant``."""
   return _legged_ant(4, math.pi / 4)
-
-
-def pro_ant(num_legs: int = 4) -> ComponentSpec:
-  """Procedural ant with ``num_legs`` legs (2..16) spaced evenly, the first along +x."""
-  if not MIN_LEGS <= num_legs <= MAX_LEGS:
-    raise ValueError(
-        f"pro_ant: num_legs={num_legs} is out of range; valid values are {MIN_LEGS}..{MAX_LEGS}")
-  return _legged_ant(num_legs, 0.0)
 
 
 # --------------------------------------------------------------------------------------------------
@@ -153,8 +95,9 @@ def _capsule(parent: Element, name: str, fromto, size) -> None:
   parent.add("geom", name=name, type="capsule", fromto=fromto, size=size)
 
 
-def humanoid() -> ComponentSpec:
-  """The standard MuJoCo humanoid: 17 hinge joints, torso at 1.4 m."""
+def gym_humanoid() -> ComponentSpec:
+  """The MuJoCo/Gymnasium humanoid: 17 hinge joints, torso at 1.4 m. Not the paper's body: see
+  ``humanoid``."""
   deg = math.radians
 
   def hinge(body, name, axis, lo, hi, *, armature, damping=5.0, stiffness=10.0, pos=(0, 0, 0)):
@@ -237,8 +180,9 @@ _CHEETAH_JOINTS = dict(  # body pos, range, stiffness, damping, gear
 )
 
 
-def halfcheetah() -> ComponentSpec:
-  """The standard MuJoCo half-cheetah: planar root (x, z slides and a y hinge) and 6 joints."""
+def gym_halfcheetah() -> ComponentSpec:
+  """The MuJoCo/Gymnasium half-cheetah (14 kg, damped, sprung joints): planar root (x, z slides and
+  a y hinge) and 6 joints. Not the paper's body: see ``halfcheetah``."""
   radius = 0.046
   half_lengths = [0.5, 0.15] + [g[3] for g in _CHEETAH_GEOMS]
   volume = sum(math.pi * radius**2 * 2 * h + 4 / 3 * math.pi * radius**3 for h in half_lengths)
@@ -286,7 +230,8 @@ def singleton(size: float | tuple = 0.25, collider_type: str = "sphere",
               no_obs: bool = False) -> ComponentSpec:
   """A free rigid object: a sphere of radius ``size`` or a capsule ``size=(radius, length)``.
 
-  Mass is radius**3 (Braxlines' convention); it rests on the ground at its default position.
+  Mass is radius**3 (Braxlines' convention); it starts resting on the floor (1 mm above it) under
+  its component position.
   """
   if collider_type not in ("sphere", "capsule"):
     raise ValueError(
@@ -313,6 +258,7 @@ def singleton(size: float | tuple = 0.25, collider_type: str = "sphere",
       colliders=("object_geom",),
       root_colliders=("object_geom",),
       observers=() if no_obs else ("qp",),
+      rest_on_ground=True,
   )
 
 
@@ -339,11 +285,16 @@ def point(gear: float = 4.0, damping: float = 2.0) -> ComponentSpec:
 # --------------------------------------------------------------------------------------------------
 # Registry.
 
+from blx.envs import brax_bodies  # noqa: E402  (the paper's bodies)
+
 _COMPONENTS: dict[str, Callable[..., ComponentSpec]] = {
-    "ant": ant,
-    "pro_ant": pro_ant,
-    "humanoid": humanoid,
-    "halfcheetah": halfcheetah,
+    "ant": brax_bodies.ant,
+    "pro_ant": brax_bodies.pro_ant,
+    "humanoid": brax_bodies.humanoid,
+    "halfcheetah": brax_bodies.halfcheetah,
+    "gym_ant": gym_ant,
+    "gym_humanoid": gym_humanoid,
+    "gym_halfcheetah": gym_halfcheetah,
     "singleton": singleton,
     "point": point,
 }

@@ -2,7 +2,8 @@
 
 from __future__ import annotations
 
-from typing import Any, Mapping
+import dataclasses
+from typing import Any, Mapping, NamedTuple
 
 import jax
 import jax.numpy as jnp
@@ -10,13 +11,14 @@ import mujoco
 import numpy as np
 from flax import struct
 from mujoco import mjx
+from mujoco.mjx._src import support as mjx_support  # contact_force_dim: forces of condim-3 contacts
 
 from blx.envs.composer import compose
-from blx.envs.observers import (Handle, ObsPiece, component_observers, edge_observers,
-                                root_quantity)
+from blx.envs.observers import (Handle, ObsPiece, component_observers, contact_observer,
+                                edge_observers, root_quantity)
 from blx.envs.rewards import RewardTerm, build_reward_term
 
-__all__ = ["Env", "State"]
+__all__ = ["Env", "State", "TorqueCut", "REST_CLEARANCE"]
 
 
 @struct.dataclass
@@ -29,7 +31,13 @@ class State:
     reward: scalar reward of the last step.
     done: 1.0 when the episode ended at the last step (termination or truncation), else 0.0.
     metrics: ``reward/<term>`` and ``score/<term>`` for every reward term, and ``score``.
-    info: wrapper bookkeeping (``steps``, ``truncation``, first state for auto-reset).
+    info: wrapper bookkeeping (``steps``, the first state for auto-reset).
+    truncation: 1.0 when the episode ended at the last step because its time ran out (set by the
+      ``episode`` wrapper), not because it terminated; learners bootstrap from the value there.
+    pre_reset_obs: the observation the last step reached; the same as ``obs`` except after an
+      ``auto_reset``, where ``obs`` is already the next episode's first observation.
+    contact: ``[B, 6]`` the contact velocity change (Δv, Δω, world frame) of each body that a
+      ``"cfrc"`` observer reports, summed over the substeps of the last step; ``[0, 6]`` when none.
   """
 
   data: mjx.Data
@@ -38,9 +46,17 @@ class State:
   done: jax.Array
   metrics: dict[str, jax.Array] = struct.field(default_factory=dict)
   info: dict[str, Any] = struct.field(default_factory=dict)
+  contact: Any = None
+  truncation: Any = None
+  pre_reset_obs: Any = None
 
 
 _AXES = {"x": 0, "y": 1, "z": 2}
+
+# Bodies that rest on the floor at reset start this far above it. Brax placed them exactly on it; at
+# exactly zero distance float32 MJX and float64 MuJoCo disagree on whether the first contact is
+# active (4.6 cm apart after one ant step), while from 1 mm up they agree to 1e-6.
+REST_CLEARANCE = 0.001
 
 
 class Env:
@@ -79,10 +95,15 @@ class Env:
     comps = self.desc["components"]
     pieces: list[ObsPiece] = []
     terms: list[RewardTerm] = []
+    self._contact_bodies: list[int] = []   # body ids whose contact Δv/Δω the observation reports
     for n, spec in scene.specs.items():
       observers = comps[n].get("observers", spec.observers)
       for i, obs in enumerate(observers):
-        pieces += component_observers(self._handles[n], obs, f"components.{n}.observers[{i}]")
+        where = f"components.{n}.observers[{i}]"
+        if obs == "cfrc":
+          pieces += self._contact_pieces(n, spec, where)
+        else:
+          pieces += component_observers(self._handles[n], obs, where)
       for term, term_desc in comps[n].get("reward_fns", {}).items():
         terms.append(build_reward_term(f"{n}/{term}", term_desc, [self._handles[n]],
                                        f"components.{n}.reward_fns.{term}"))
@@ -123,6 +144,63 @@ class Env:
     noise_qpos = np.concatenate([h.joint_qpos for h in self._handles.values()] + [np.zeros(0, int)])
     self._noise_qpos = noise_qpos.astype(np.int32)
     self._data0 = mjx.make_data(self.mjx_model)
+    self.init_qpos = self._default_pose(scene)
+    self.torque_cut = self._torque_cut(scene)
+
+  # ------------------------------------------------------------------------------------------------
+  def _default_pose(self, scene) -> np.ndarray:
+    """qpos of the reset pose: each component's default angles, lifted onto its frame's floor
+    (``REST_CLEARANCE`` above it)."""
+    m = self.mj_model
+    qpos = m.qpos0.copy()
+    comps = self.desc["components"]
+    for n, spec in scene.specs.items():
+      for joint, angle in spec.default_qpos.items():
+        j = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_JOINT, f"{n}/{joint}")
+        if j >= 0:
+          qpos[m.jnt_qposadr[j]] = angle
+    data = mujoco.MjData(m)
+    data.qpos[:] = qpos
+    mujoco.mj_kinematics(m, data)
+    for n, spec in scene.specs.items():
+      handle = self._handles[n]
+      if not spec.rest_on_ground or comps[n].get("frozen", False) or not spec.colliders:
+        continue
+      lowest = min(_geom_bottom(m, data, mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, f"{n}/{g}"))
+                   for g in spec.colliders)
+      floor = float(comps[n].get("pos", (0.0, 0.0, 0.0))[2]) + REST_CLEARANCE
+      if handle.free_qpos is not None:
+        qpos[handle.free_qpos + 2] += floor - lowest
+      elif 2 in handle.lin_axes:
+        qpos[handle.slide_qpos[handle.lin_axes.index(2)]] += floor - lowest
+    return qpos.astype(np.float32)
+
+  def _torque_cut(self, scene) -> "TorqueCut":
+    """Motors whose torque Brax v1 zeroes while their joint is outside its range."""
+    m = self.mj_model
+    ids, adr, lo, hi = [], [], [], []
+    for i in range(m.nu):
+      comp = mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_ACTUATOR, i).split("/")[0]
+      joint = int(m.actuator_trnid[i, 0])
+      if scene.specs[comp].torque_cut and m.jnt_limited[joint]:
+        ids.append(i)
+        adr.append(int(m.jnt_qposadr[joint]))
+        lo.append(float(m.jnt_range[joint, 0]))
+        hi.append(float(m.jnt_range[joint, 1]))
+    as_np = lambda x, t: np.asarray(x, t)
+    return TorqueCut(as_np(ids, np.int32), as_np(adr, np.int32), as_np(lo, np.float32),
+                     as_np(hi, np.float32))
+
+  def _contact_pieces(self, comp: str, spec, where: str) -> list[ObsPiece]:
+    if not spec.contact_bodies:
+      raise ValueError(f"{where}: component {spec.root!r} of {comp!r} names no contact_bodies; the "
+                       "'cfrc' observer is offered by the ant-like bodies")
+    rows = []
+    for body in spec.contact_bodies:
+      b = mujoco.mj_name2id(self.mj_model, mujoco.mjtObj.mjOBJ_BODY, f"{comp}/{body}")
+      rows.append(len(self._contact_bodies))
+      self._contact_bodies.append(b)
+    return contact_observer(comp, np.asarray(rows, np.int32), spec.contact_clip)
 
   # ------------------------------------------------------------------------------------------------
   def _resolve(self, comp: str, spec, rest: mujoco.MjData) -> Handle:
@@ -244,8 +322,36 @@ class Env:
                      f"{sorted(self._named)}; layout names are {list(self.obs_layout)}")
 
   # ------------------------------------------------------------------------------------------------
-  def _observe(self, data: mjx.Data) -> jax.Array:
-    return jnp.concatenate([jnp.reshape(p.fn(data), (-1,)) for p in self._pieces])
+  def _observe(self, data: mjx.Data, contact: jax.Array) -> jax.Array:
+    return jnp.concatenate([jnp.reshape(p.fn(contact if p.reads_contact else data), (-1,))
+                            for p in self._pieces])
+
+  def _contact_change(self, data: mjx.Data) -> jax.Array:
+    """``[B, 6]`` velocity change (Δv, Δω) that the last physics step's contact forces gave each
+    reported body: F h / m and I^-1 (r x F) h, with r from the body's centre of mass."""
+    m, h = self.mj_model, float(self.mj_model.opt.timestep)
+    force, idx = mjx_support.contact_force_dim(self.mjx_model, data, 3)
+    if not len(idx):
+      return jnp.zeros((len(self._contact_bodies), 6))
+    contact = data._impl.contact
+    frame, pos = contact.frame[idx], contact.pos[idx]
+    world = jnp.einsum("ci,cij->cj", force[:, :3], frame)             # [C, 3]
+    bodies = jnp.asarray(m.geom_bodyid, jnp.int32)[contact.geom[idx]]  # [C, 2]
+    targets = jnp.asarray(self._contact_bodies, jnp.int32)
+    out = []
+    for b, sign in ((bodies[:, 0], -1.0), (bodies[:, 1], 1.0)):
+      hit = (b[:, None] == targets[None, :]).astype(world.dtype)     # [C, B]
+      f = sign * world
+      lever = pos[:, None, :] - data.xipos[targets][None, :, :]       # [C, B, 3]
+      torque = jnp.cross(lever, f[:, None, :])                       # [C, B, 3]
+      out.append(jnp.concatenate([hit.T @ f, jnp.einsum("cb,cbi->bi", hit, torque)], -1))
+    total = out[0] + out[1]                                            # [B, 6] force, torque
+    mass = jnp.asarray(m.body_mass[self._contact_bodies], total.dtype)[:, None]
+    inv_i = 1.0 / jnp.asarray(m.body_inertia[self._contact_bodies], total.dtype)  # principal axes
+    rot = data.ximat[targets]                                          # [B, 3, 3]
+    local = jnp.einsum("bji,bj->bi", rot, total[:, 3:]) * inv_i
+    dw = jnp.einsum("bij,bj->bi", rot, local)
+    return h * jnp.concatenate([total[:, :3] / mass, dw], -1)
 
   def _reward(self, data: mjx.Data, action: jax.Array):
     metrics, reward, score, done = {}, jnp.zeros(()), jnp.zeros(()), jnp.zeros((), bool)
@@ -266,7 +372,7 @@ class Env:
   def reset(self, key: jax.Array) -> State:
     """Initial state: the model's default pose, plus uniform noise of ``reset_noise_scale``."""
     scale = float(self.options["reset_noise_scale"])
-    qpos = jnp.asarray(self.mj_model.qpos0, jnp.float32)
+    qpos = jnp.asarray(self.init_qpos)
     qvel = jnp.zeros(self.mj_model.nv, jnp.float32)
     if scale > 0:
       pos_key, vel_key = jax.random.split(key)
@@ -276,21 +382,64 @@ class Env:
     data = mjx.forward(self.mjx_model, self._data0.replace(qpos=qpos, qvel=qvel))
     metrics = {f"{kind}/{t}": jnp.zeros(()) for t in self.reward_terms for kind in ("reward", "score")}
     metrics["score"] = jnp.zeros(())
-    return State(data=data, obs=self._observe(data), reward=jnp.zeros(()), done=jnp.zeros(()),
-                 metrics=metrics, info={})
+    contact = jnp.zeros((len(self._contact_bodies), 6))
+    obs = self._observe(data, contact)
+    return State(data=data, obs=obs, reward=jnp.zeros(()), done=jnp.zeros(()), metrics=metrics,
+                 info={}, contact=contact, truncation=jnp.zeros(()), pre_reset_obs=obs)
+
+  def _ctrl(self, action: jax.Array, qpos: jax.Array) -> jax.Array:
+    """The motor controls for ``action``, with Brax's cut past the joint limits applied."""
+    cut = self.torque_cut
+    if not len(cut.actuators):
+      return action
+    angle = qpos[cut.qpos_adr]
+    inside = (angle >= cut.low) & (angle <= cut.high)
+    return action.at[cut.actuators].multiply(inside.astype(action.dtype))
 
   def step(self, state: State, action: jax.Array) -> State:
     """Advances ``substeps`` physics steps with ``action`` (clipped to [-1, 1]) held fixed."""
     action = jnp.clip(action, -1.0, 1.0)
-    data = state.data.replace(ctrl=action)
-    data = jax.lax.fori_loop(0, self.substeps, lambda _, d: mjx.step(self.mjx_model, d), data)
+    observe_contact = bool(self._contact_bodies)
+
+    def substep(_, carry):
+      data, contact = carry
+      data = mjx.step(self.mjx_model, data.replace(ctrl=self._ctrl(action, data.qpos)))
+      if observe_contact:
+        contact = contact + self._contact_change(data)
+      return data, contact
+
+    contact = jnp.zeros((len(self._contact_bodies), 6))
+    data, contact = jax.lax.fori_loop(0, self.substeps, substep, (state.data, contact))
     reward, done, metrics = self._reward(data, action)
-    return state.replace(data=data, obs=self._observe(data), reward=reward,
-                         done=done.astype(jnp.float32), metrics=metrics)
+    obs = self._observe(data, contact)
+    return state.replace(data=data, obs=obs, reward=reward, done=done.astype(jnp.float32),
+                         metrics=metrics, contact=contact, truncation=jnp.zeros(()),
+                         pre_reset_obs=obs)
 
   def __repr__(self) -> str:
     return (f"Env({self.name or 'custom'}: obs {self.observation_size}, action {self.action_size}, "
             f"dt {self.dt:g}s)")
+
+
+class TorqueCut(NamedTuple):
+  """Actuators whose control is zeroed while ``qpos[qpos_adr]`` lies outside ``[low, high]``."""
+
+  actuators: np.ndarray
+  qpos_adr: np.ndarray
+  low: np.ndarray
+  high: np.ndarray
+
+
+def _geom_bottom(m: mujoco.MjModel, data: mujoco.MjData, geom: int) -> float:
+  """The lowest world z of a sphere or capsule geom (others: its centre minus its bounding radius)."""
+  z = float(data.geom_xpos[geom, 2])
+  size = m.geom_size[geom]
+  if m.geom_type[geom] == mujoco.mjtGeom.mjGEOM_SPHERE:
+    return z - float(size[0])
+  if m.geom_type[geom] == mujoco.mjtGeom.mjGEOM_CAPSULE:
+    axis_z = float(data.geom_xmat[geom].reshape(3, 3)[2, 2])
+    return z - abs(axis_z) * float(size[1]) - float(size[0])
+  return z - float(m.geom_rbound[geom])
 
 
 def _unique(pieces: list[ObsPiece]) -> list[ObsPiece]:
@@ -299,6 +448,5 @@ def _unique(pieces: list[ObsPiece]) -> list[ObsPiece]:
   out = []
   for p in pieces:
     seen[p.name] = seen.get(p.name, 0) + 1
-    out.append(p if seen[p.name] == 1 else ObsPiece(f"{p.name}#{seen[p.name]}", p.size, p.fn,
-                                                   p.source))
+    out.append(p if seen[p.name] == 1 else dataclasses.replace(p, name=f"{p.name}#{seen[p.name]}"))
   return out

@@ -9,6 +9,10 @@ Component observers (``observers`` in a component desc):
   ``[z, quat, 8 joint angles, vel xyz, ang xyz, 8 joint velocities]``: x/y velocity at (13, 14).
 * ``"qp"``: root position, quaternion, linear and angular velocity (for single-body objects).
 * ``"joints"``: joint angles and velocities only.
+* ``"cfrc"``: the contact velocity change of each of the component's ``contact_bodies`` over the last
+  step, Δv (3 per body) then Δω (3 per body), world frame, clipped to +-``contact_clip`` (Brax v1's
+  ``info.contact``, which its ant observes; computed from MJX's contact forces, see
+  ``blx.envs.brax_bodies``).
 * ``dict(observer_type="root", sdcomp="pos"|"rot"|"vel"|"ang", indices=None)``: one root quantity,
   optionally indexed.
 
@@ -16,8 +20,8 @@ Edge observers (``extra_observers`` of an edge ``"a__b"``):
 
 * ``dict(observer_type="root_vec", sdcomp="pos", indices=None)``: root(a) - root(b).
 
-Contact forces are not offered: MJX's ``step`` does not compute ``cfrc_ext``, and computing it would
-cost another pass over the constraint forces at every step.
+Root angular velocities are in the world frame (MuJoCo's free joint stores them in the body frame;
+they are rotated here), as in Brax.
 """
 
 from __future__ import annotations
@@ -29,9 +33,10 @@ import jax.numpy as jnp
 import numpy as np
 
 __all__ = ["ObsPiece", "Handle", "root_quantity", "component_observers", "edge_observers",
+           "contact_observer",
            "COMPONENT_OBSERVERS", "EDGE_OBSERVERS", "SDCOMPS"]
 
-COMPONENT_OBSERVERS = ("root_joints", "root_z_joints", "qp", "joints", "root")
+COMPONENT_OBSERVERS = ("root_joints", "root_z_joints", "qp", "joints", "cfrc", "root")
 EDGE_OBSERVERS = ("root_vec",)
 SDCOMPS = {"pos": 3, "rot": 4, "vel": 3, "ang": 3}
 
@@ -69,6 +74,13 @@ def _quat_mul(a: jnp.ndarray, b: jnp.ndarray) -> jnp.ndarray:
                     aw * by - ax * bz + ay * bw + az * bx, aw * bz + ax * by - ay * bx + az * bw])
 
 
+def _rotate(quat: jnp.ndarray, v: jnp.ndarray) -> jnp.ndarray:
+  """Rotates ``v`` by the unit quaternion ``quat`` (wxyz)."""
+  w, xyz = quat[0], quat[1:]
+  t = 2.0 * jnp.cross(xyz, v)
+  return v + w * t + jnp.cross(xyz, t)
+
+
 def root_quantity(handle: Handle, data: Any, sdcomp: str) -> jnp.ndarray:
   """The root's position [3], orientation quaternion [4], linear [3] or angular [3] velocity.
 
@@ -94,6 +106,9 @@ def root_quantity(handle: Handle, data: Any, sdcomp: str) -> jnp.ndarray:
   if sdcomp == "vel":
     return _scatter3(data.qvel[np.asarray(handle.lin_dofs, np.int32)], handle.lin_axes)
   if sdcomp == "ang":
+    if handle.free_qpos is not None:  # qvel holds the body-frame angular velocity: rotate to world
+      local = data.qvel[handle.ang_dofs[0]:handle.ang_dofs[0] + 3]
+      return _rotate(data.qpos[handle.free_qpos + 3:handle.free_qpos + 7], local)
     return _scatter3(data.qvel[np.asarray(handle.ang_dofs, np.int32)], handle.ang_axes)
   raise ValueError(f"unknown sdcomp {sdcomp!r}; valid values are {sorted(SDCOMPS)}")
 
@@ -110,6 +125,16 @@ class ObsPiece:
   size: int
   fn: Callable[[Any], jnp.ndarray]
   source: tuple[str, str, tuple[int, ...]] | None = None
+  reads_contact: bool = False   # fn reads the env's contact array ``[B, 6]`` instead of mjx.Data
+
+
+def contact_observer(comp: str, rows: np.ndarray, clip: float | None) -> list[ObsPiece]:
+  """Δv then Δω of the contact array's ``rows`` (one component's bodies), optionally clipped."""
+  bound = (lambda x: jnp.clip(x, -clip, clip)) if clip is not None else (lambda x: x)
+  return [ObsPiece(f"{comp}/contact_vel", 3 * len(rows), lambda c: bound(c[rows, :3]),
+                   reads_contact=True),
+          ObsPiece(f"{comp}/contact_ang", 3 * len(rows), lambda c: bound(c[rows, 3:]),
+                   reads_contact=True)]
 
 
 def _indices(where: str, indices: Any, size: int) -> tuple[int, ...]:

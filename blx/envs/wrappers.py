@@ -80,8 +80,7 @@ class _Episode(Wrapper):
 
   def reset(self, key):
     state = self.env.reset(key)
-    info = {**state.info, "steps": jnp.zeros(()), "truncation": jnp.zeros(())}
-    return state.replace(info=info)
+    return state.replace(truncation=jnp.zeros(()), info={**state.info, "steps": jnp.zeros(())})
 
   def step(self, state, action):
     state = self.env.step(state, action)
@@ -90,11 +89,12 @@ class _Episode(Wrapper):
     # Truncation (time limit, not termination) tells the learner to bootstrap from the value.
     truncation = jnp.where(limit, 1.0 - state.done, 0.0)
     done = jnp.where(limit, 1.0, state.done)
-    return state.replace(done=done, info={**state.info, "steps": steps, "truncation": truncation})
+    return state.replace(done=done, truncation=truncation, info={**state.info, "steps": steps})
 
 
 def episode(env, length: int):
-  """Ends episodes after ``length`` steps (of the unrepeated env), setting ``info['truncation']`` = 1 when time ran out."""
+  """Ends episodes after ``length`` steps (of the unrepeated env), setting ``State.truncation`` = 1
+  when time ran out."""
   if not isinstance(length, int) or isinstance(length, bool) or length < 1:
     raise ValueError(f"episode_length must be a positive int or None, got {length!r}")
   return _Episode(env, length)
@@ -103,8 +103,7 @@ def episode(env, length: int):
 class _AutoReset(Wrapper):
   def reset(self, key):
     state = self.env.reset(key)
-    return state.replace(info={**state.info, "first_data": state.data, "first_obs": state.obs,
-                               "pre_reset_obs": state.obs})
+    return state.replace(info={**state.info, "first_data": state.data, "first_obs": state.obs})
 
   def step(self, state, action):
     info = dict(state.info)
@@ -114,13 +113,13 @@ class _AutoReset(Wrapper):
     reset = lambda first, now: jnp.where(state.done > 0, first, now)
     data = jax.tree.map(reset, state.info["first_data"], state.data)
     obs = reset(state.info["first_obs"], state.obs)
-    return state.replace(data=data, obs=obs, info={**state.info, "pre_reset_obs": state.obs})
+    return state.replace(data=data, obs=obs, pre_reset_obs=state.obs)
 
 
 def auto_reset(env):
   """Returns to the first state of the episode when it ends.
 
   The terminal step keeps its reward and done; ``obs`` becomes the reset observation and
-  ``info['pre_reset_obs']`` keeps the observation the step really reached (for bootstrapping).
+  ``State.pre_reset_obs`` keeps the observation the step really reached (for bootstrapping).
   """
   return _AutoReset(env)

@@ -167,7 +167,7 @@ def cmd_render(args) -> int:
     raise UsageError(f"--seed-index {args.seed_index}: the run has {len(run.spec.seeds)} seed(s)")
   params = jax.tree.map(lambda x: x[args.seed_index], run.params)
   key = jax.random.PRNGKey(0)
-  if run.objective.info.get("family") == "mimax":
+  if getattr(run.objective.spec, "prior", None) is not None:  # skills to choose from
     latents = metrics.latents_for_evaluation(run.objective, key, 4)
     chosen = list(range(latents.shape[0]))
     if args.skills:

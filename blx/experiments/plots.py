@@ -137,12 +137,20 @@ def discriminator(logit_fn, params, path: str, *, dim: int, labels: list[str], s
   plt.close(fig)
 
 
+_QUANTITIES = {"root_vel": "velocity", "root_pos": "position", "root_ang": "angular velocity"}
+
+
 def feature_labels(env, indices) -> list[str]:
-  """Readable names of observation indices from the env's layout (``agent1/root_vel[0]``)."""
+  """Readable names of observation indices from the env's layout: ``agent1 velocity x (obs 13)``
+  for the root's position, velocity and angular velocity, else ``agent1/joint_pos[2] (obs 7)``."""
   names = {}
   for name, sl in env.obs_layout.items():
+    owner, _, piece = name.rpartition("/")
     for j, i in enumerate(range(sl.start, sl.stop)):
-      names[i] = f"{name}#{j}"
+      if piece in _QUANTITIES and sl.stop - sl.start == 3:
+        names[i] = f"{owner} {_QUANTITIES[piece]} {'xyz'[j]} (obs {i})"
+      else:
+        names[i] = f"{name}[{j}] (obs {i})"
   return [names.get(int(i), f"obs[{int(i)}]") for i in indices]
 
 
@@ -158,12 +166,12 @@ def write_all(run, history: list[dict], *, seed_index: int = 0, key_seed: int = 
   if run.params is None:
     return written
   params = jax.tree.map(lambda x: x[seed_index], run.params)
-  info = run.objective.info
-  family = info.get("family")
+  spec = run.objective.spec
+  plot = metrics.family_of(run.objective).plot
   length = run.config.eval_episode_length or run.config.episode_length
   key = jax.random.PRNGKey(key_seed)
   name = f"{run.objective.name} on {run.spec.env} (seed {run.spec.seeds[seed_index]})"
-  if family == "mimax":
+  if plot == "skills":
     indices = np.asarray(metrics.eval_indices(run.objective))
     latents = metrics.latents_for_evaluation(run.objective, key, 8)
     states = jax.jit(lambda p, z, k: metrics.rollout(
@@ -171,24 +179,24 @@ def write_all(run, history: list[dict], *, seed_index: int = 0, key_seed: int = 
         action_repeat=run.config.action_repeat))(params, latents, key)
     path = os.path.join(out_dir, "skills.png")
     skills(np.asarray(states[..., indices]), path, labels=feature_labels(run.env, indices),
-           scale=info["obs_scale"], title=name)
+           scale=spec.obs_scale, title=name)
     written.append(path)
-  elif family == "dmin":
-    indices = np.asarray(info["obs_indices"])
+  elif plot == "density":
+    indices = np.asarray(spec.obs_indices)
     states = jax.jit(lambda p, k: metrics.rollout(
         run.env, run.policy, p, jnp.zeros((1, 0)), k, episodes_per_latent=10,
         episode_length=length, action_repeat=run.config.action_repeat,
         conditions_policy=False))(params, key)
     last = max(1, length // 2)
     x = np.asarray(states[0, :, -last:][..., indices]).reshape(-1, len(indices))
-    target = np.asarray(info["target"].samples)[:, :len(indices)]
+    target = np.asarray(spec.target.samples)[:, :len(indices)]
     labels = feature_labels(run.env, indices)
     path = os.path.join(out_dir, "density.png")
-    density(x, target, path, labels=labels, scale=info["obs_scale"], title=name)
+    density(x, target, path, labels=labels, scale=spec.obs_scale, title=name)
     written.append(path)
-    if info.get("logit") is not None and not info.get("include_action"):
+    if getattr(spec, "logit", None) is not None and not getattr(spec, "include_action", False):
       path = os.path.join(out_dir, "discriminator.png")
-      discriminator(info["logit"], params["objective"], path, dim=len(indices), labels=labels,
-                    scale=info["obs_scale"], title=name)
+      discriminator(spec.logit, params.objective, path, dim=len(indices), labels=labels,
+                    scale=spec.obs_scale, title=name)
       written.append(path)
   return written

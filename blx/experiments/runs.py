@@ -54,7 +54,7 @@ class RunSpec:
 class Run(NamedTuple):
   """A run rebuilt from its directory (``load_run``): everything to evaluate, plot and render.
 
-  ``params`` has a leading seed axis (``{"normalizer", "policy", "value", "objective"}``);
+  ``params`` is a ``training.PolicyParams`` with a leading seed axis;
   ``policy(params_of_one_seed, obs, z=None)`` is the deterministic policy.
   """
 
@@ -63,7 +63,7 @@ class Run(NamedTuple):
   env: Any
   objective: objectives.Objective
   config: training.PPOConfig
-  params: dict | None
+  params: training.PolicyParams | None
   policy: Any
   meta: dict
 
@@ -149,8 +149,7 @@ def load_run(directory: str, *, need_checkpoint: bool = True) -> Run:
       state, meta = checkpoint.restore(ckpt, like)
     except Exception as e:  # a checkpoint from another config or version
       raise RunError(f"{ckpt}: the checkpoint does not match config.json ({e})") from None
-    params = {"normalizer": state.normalizer, "policy": state.params.policy,
-              "value": state.params.value, "objective": state.params.objective}
+    params = training.policy_params(state)
   elif need_checkpoint:
     raise RunError(f"{directory!r} has no checkpoint yet (was training interrupted before the "
                    "first evaluation?)")
@@ -180,19 +179,11 @@ def write_metrics_csv(path: str, history: list[dict], seeds) -> None:
 
 
 def evaluator_for(env, objective, config: training.PPOConfig, *, quick: bool = False):
-  """The paper's evaluator for the objective's family (None for task RL), sized to the episode."""
-  family = objective.info.get("family")
-  length = config.eval_episode_length or config.episode_length
-  last = min(500, max(1, length // 2))
-  common = dict(episode_length=length, action_repeat=config.action_repeat, last_steps=last)
-  if family == "mimax":
-    n = 4 if quick else 10
-    return metrics.mimax_evaluator(env, objective, num_latents=n,
-                                                episodes_per_latent=n, num_goals=n, **common)
-  if family == "dmin":
-    return metrics.dmin_evaluator(env, objective, num_episodes=4 if quick else 10,
-                                               every=1 if length < 200 else 10, **common)
-  return None
+  """The paper's evaluator for the objective (``blx.metrics.evaluator_for``), sized to the run's
+  episodes; None for objectives measured by their rewards alone."""
+  return metrics.evaluator_for(env, objective,
+                               episode_length=config.eval_episode_length or config.episode_length,
+                               action_repeat=config.action_repeat, quick=quick)
 
 
 def evaluate_run(run: Run, *, key_seed: int = 0) -> dict[str, list[float]]:
@@ -204,8 +195,7 @@ def evaluate_run(run: Run, *, key_seed: int = 0) -> dict[str, list[float]]:
   evaluator = evaluator_for(run.env, run.objective, run.config)
 
   def one(params, key):
-    state_like = _state_for_eval(trainer, params)
-    out = {k: v for k, v in trainer.evaluate(state_like, key).items()
+    out = {k: v for k, v in trainer.evaluate(params, key).items()
            if k in ("eval/episode_reward", "eval/episode_score", "eval/episode_length")}
     if evaluator is not None:
       out.update(evaluator(trainer.policy, params, key))
@@ -215,15 +205,6 @@ def evaluate_run(run: Run, *, key_seed: int = 0) -> dict[str, list[float]]:
   for k, v in values.items():
     results[k] = [float(x) for x in np.asarray(v)]
   return results
-
-
-def _state_for_eval(trainer, params):
-  """A TrainState-shaped object holding what ``trainer.evaluate`` reads."""
-  from blx.training.ppo import Params, TrainState
-  return TrainState(params=Params(policy=params["policy"], value=params["value"],
-                                  objective=params["objective"]),
-                    opt_state=None, normalizer=params["normalizer"], env_state=None, z=None,
-                    key=None, env_steps=None, iteration=None)
 
 
 def summarise(values: dict[str, list[float]]) -> dict[str, dict[str, float]]:

@@ -21,20 +21,12 @@ import os
 import runpy
 from typing import Any, Callable
 
+from blx import metrics
 from blx.experiments import runs
 
-__all__ = ["load_spec", "expand", "run_sweep", "TABLE_METRICS"]
+__all__ = ["load_spec", "expand", "run_sweep"]
 
 _KEYS = {"name", "env", "objective", "seeds", "steps", "config", "options", "env_params", "out"}
-
-# (column label, metric key, sign): the paper's tables report -LGR and -energy distance.
-TABLE_METRICS = {
-    "mimax": [("MI(s,z)", "eval/mi", 1.0), ("H(s)", "eval/entropy", 1.0),
-              ("-LGR", "eval/lgr", -1.0), ("coverage", "eval/coverage", 1.0)],
-    "dmin": [("-energy distance", "eval/energy_distance", -1.0)],
-    "task": [("episode reward", "eval/episode_reward", 1.0),
-             ("episode score", "eval/episode_score", 1.0)],
-}
 
 
 def load_spec(path: str) -> dict:
@@ -102,12 +94,6 @@ def _fmt(v: Any) -> str:
   return str(v).replace("/", "-").replace(" ", "")
 
 
-def _family(objective: str) -> str:
-  from blx import objectives
-  return ("mimax" if objective in objectives.MIMAX else
-          "dmin" if objective in objectives.DMIN else "task")
-
-
 def run_sweep(spec: dict, out: str, *, progress=True, eval_metrics: bool = False,
               select: Callable[[str, runs.RunSpec], bool] | None = None) -> list[dict]:
   """Trains and evaluates every grid point (skipping points already evaluated), then writes
@@ -119,9 +105,9 @@ def run_sweep(spec: dict, out: str, *, progress=True, eval_metrics: bool = False
   gathers them all.
   """
   points = expand(spec)
-  # Build everything first so a bad option fails before any training.
-  for _, run_spec in points:
-    runs.build(run_spec)
+  # Build everything first so a bad option fails before any training; the tables ask
+  # blx.metrics how each objective is measured.
+  families = [metrics.family_of(runs.build(run_spec)[1]) for _, run_spec in points]
   os.makedirs(out, exist_ok=True)
   rows = []
   for i, (name, run_spec) in enumerate(points):
@@ -139,8 +125,8 @@ def run_sweep(spec: dict, out: str, *, progress=True, eval_metrics: bool = False
       result = runs.train_run(run_spec, directory, resume=resume, progress=progress,
                               eval_metrics=eval_metrics).meta["eval"]
     rows.append({"name": name, "env": run_spec.env, "objective": run_spec.objective,
-                 "family": _family(run_spec.objective), "summary": result["summary"],
-                 "seeds": len(run_spec.seeds)})
+                 "family": families[i].name, "columns": families[i].table,
+                 "summary": result["summary"], "seeds": len(run_spec.seeds)})
   write_tables(rows, out)
   return rows
 
@@ -153,13 +139,12 @@ def _cell(summary: dict, key: str, sign: float) -> tuple[str, float, float]:
 
 
 def write_tables(rows: list[dict], out: str) -> None:
-  """One table per family (MI-max, D-min, task), rows = grid points, as Markdown, CSV and LaTeX."""
+  """One table per family (MI-max, D-min, task, ...), rows = grid points, as Markdown, CSV and
+  LaTeX; each family's columns are those ``blx.metrics`` registers for it."""
   md, tex, csv_rows = [], [], []
-  for family in ("mimax", "dmin", "task"):
+  for family in dict.fromkeys(r["family"] for r in rows):
     group = [r for r in rows if r["family"] == family]
-    if not group:
-      continue
-    cols = TABLE_METRICS[family]
+    cols = group[0]["columns"]
     md.append(f"| run | seeds | {' | '.join(c for c, _, _ in cols)} |")
     md.append("| --- | ---: |" + " ---: |" * len(cols))
     tex.append("\\begin{tabular}{l" + "c" * (len(cols) + 1) + "}\n\\toprule")

@@ -10,7 +10,8 @@ drawn from U(-obs_scale, obs_scale)^d with seed 0; for D-min 10 episodes, every 
 Every ``*_evaluator`` returns a pure function ``(policy, params, key) -> metrics`` that is jit- and
 vmap-able (``blx.training.train(..., evaluate=...)`` vmaps it over seeds); ``policy`` is
 ``policy(params, obs [N, O], z [N, Z] | None, key=..., deterministic=...) -> action``
-(``TrainResult.policy``) and ``params`` holds ``normalizer``, ``policy`` and ``objective``.
+(``TrainResult.policy``) and ``params`` is what it acts with, a ``blx.training.PolicyParams``
+(the MI-max evaluator also reads ``params.objective`` to infer the skill for each goal).
 ``evaluate_mimax`` / ``evaluate_dmin`` call one directly.
 """
 
@@ -25,6 +26,7 @@ import numpy as np
 from blx import envs as envs_lib
 from blx.metrics import particle
 from blx.objectives.base import Objective
+from blx.objectives.specs import DminSpec, MimaxSpec
 
 __all__ = ["rollout", "latents_for_evaluation", "eval_indices", "mimax_evaluator",
            "dmin_evaluator", "evaluate_mimax", "evaluate_dmin"]
@@ -64,7 +66,8 @@ def rollout(env: Any, policy: Callable, params: dict, latents: jax.Array, key: j
 def latents_for_evaluation(objective: Objective, key: jax.Array, num_latents: int) -> jax.Array:
   """All K one-hots (categorical prior), the single value (deterministic) or ``num_latents``
   samples of the prior (continuous): ``[L, Z]``."""
-  prior = objective.info["prior"]
+  _check_spec(objective, MimaxSpec, "latents_for_evaluation")
+  prior = objective.spec.prior
   if prior.kind == "categorical":
     return jnp.eye(prior.dim)
   if prior.kind == "deterministic":
@@ -74,17 +77,18 @@ def latents_for_evaluation(objective: Objective, key: jax.Array, num_latents: in
 
 def eval_indices(objective: Objective) -> tuple[int, ...]:
   """The observation dimensions evaluation looks at (``obs_indices``, or diayn_full's named ones)."""
-  indices = objective.info.get("eval_indices") or objective.info.get("obs_indices")
+  spec = objective.spec
+  indices = getattr(spec, "eval_indices", None) or getattr(spec, "obs_indices", None)
   if not indices:
     raise ValueError(f"{objective.name}: evaluation needs the observation dimensions to look at; "
                      "build the objective with obs_indices=... (e.g. 'vel_xy' with env=)")
   return tuple(indices)
 
 
-def _family(objective: Objective, family: str, helper: str) -> None:
-  if objective.info.get("family") != family:
-    raise ValueError(f"{helper}: objective {objective.name!r} is not an "
-                     f"{'MI-max' if family == 'mimax' else 'D-min'} objective")
+def _check_spec(objective: Objective, spec_type: type, helper: str) -> None:
+  if not isinstance(objective.spec, spec_type):
+    raise ValueError(f"{helper}: objective {objective.name!r} has a {type(objective.spec).__name__}"
+                     f", not a {spec_type.__name__}")
 
 
 def mimax_evaluator(env: Any, objective: Objective, *, num_latents: int = 10,
@@ -104,11 +108,11 @@ def mimax_evaluator(env: Any, objective: Objective, *, num_latents: int = 10,
     dims; ``eval/lgr`` and ``eval/lgr_1d/<obs index>`` (Algorithm 2, goals ~ U(-s, s)^d, seed 0);
     ``eval/coverage``: distinct unit cells of the first two dims visited (all skills together).
   """
-  _family(objective, "mimax", "mimax_evaluator")
+  _check_spec(objective, MimaxSpec, "mimax_evaluator")
   indices = np.asarray(eval_indices(objective))
-  scale = objective.info["obs_scale"]
+  scale = objective.spec.obs_scale
   value_range = (-scale, scale)
-  infer_latent = objective.info["infer_latent"]
+  infer_latent = objective.spec.infer_latent
   obs_size = envs_lib.unwrap(env).observation_size
   goals = jax.random.uniform(jax.random.PRNGKey(0), (num_goals, len(indices)), minval=-scale,
                              maxval=scale)
@@ -118,7 +122,7 @@ def mimax_evaluator(env: Any, objective: Objective, *, num_latents: int = 10,
     z_key, roll_key = jax.random.split(key)
     latents = latents_for_evaluation(objective, z_key, num_latents)
     num = latents.shape[0]
-    goal_latents = jax.vmap(infer_latent, (None, 0))(params["objective"], goal_obs)
+    goal_latents = jax.vmap(infer_latent, (None, 0))(params.objective, goal_obs)
     everything = rollout(env, policy, params, jnp.concatenate([latents, goal_latents]), roll_key,
                          episodes_per_latent=episodes_per_latent, episode_length=episode_length,
                          action_repeat=action_repeat, deterministic=deterministic)[..., indices]
@@ -149,9 +153,9 @@ def dmin_evaluator(env: Any, objective: Objective, *, num_episodes: int = 10,
   """``(policy, params, key) -> {"eval/energy_distance"}`` for a D-min objective: the energy
   distance between the policy's indexed states (``num_episodes`` episodes, every ``every``-th of
   the last ``last_steps`` steps, actions sampled unless ``deterministic``) and the target samples."""
-  _family(objective, "dmin", "dmin_evaluator")
-  indices = np.asarray(objective.info["obs_indices"])
-  target = jnp.asarray(objective.info["target"].samples)[:, :len(indices)]
+  _check_spec(objective, DminSpec, "dmin_evaluator")
+  indices = np.asarray(objective.spec.obs_indices)
+  target = jnp.asarray(objective.spec.target.samples)[:, :len(indices)]
 
   def evaluate(policy, params, key):
     states = rollout(env, policy, params, jnp.zeros((1, 0)), key,

@@ -9,18 +9,20 @@ from blx.objectives.dmin import (airl_reward, discriminator_loss, fairl_reward, 
                                  gail_reward, gradient_penalty, mle_reward)
 from blx.objectives.mimax import (categorical_log_q, categorical_offset, clip_logits,
                                   gaussian_log_q, gaussian_offset, mimax_reward)
-from blx.objectives.presets import (DMIN, MIMAX, airl, cdiayn, diayn, diayn_full, fairl,
+from blx.objectives.presets import (airl, cdiayn, diayn, diayn_full, fairl,
                                     fixed_gcrl, gail, gail2, gcrl, list_objectives, make, mle,
                                     options_of, resolve_indices)
 from blx.objectives.priors import (Prior, categorical_prior, deterministic_prior,
                                    uniform_prior)
+from blx.objectives.specs import DminSpec, MimaxSpec, Spec, TaskSpec
 from blx.objectives.spectral import DiscriminatorMLP, SNDense, spectral_normalize
 from blx.objectives.targets import Target, multimode_gaussian, target_from_samples
 
 __all__ = [
     "Objective", "Transition", "task",
     "gcrl", "fixed_gcrl", "cdiayn", "diayn", "diayn_full", "gail", "gail2", "airl", "fairl", "mle",
-    "make", "list_objectives", "options_of", "resolve_indices", "MIMAX", "DMIN",
+    "make", "list_objectives", "options_of", "resolve_indices",
+    "MimaxSpec", "DminSpec", "TaskSpec", "Spec",
     "gaussian_log_q", "categorical_log_q", "clip_logits", "mimax_reward", "gaussian_offset",
     "categorical_offset",
     "Prior", "uniform_prior", "categorical_prior", "deterministic_prior",

@@ -8,11 +8,12 @@ loss in the same SGD step. It never looks inside.
 
 from __future__ import annotations
 
-import types
-from typing import Any, Callable, Mapping, NamedTuple
+from typing import Any, Callable, NamedTuple
 
 import jax
 import jax.numpy as jnp
+
+from blx.objectives.specs import Spec, TaskSpec
 
 __all__ = ["Transition", "Objective", "task"]
 
@@ -51,10 +52,9 @@ class Objective(NamedTuple):
     post_update: optional ``(params, Transition [N, ...]) -> params``, applied after every SGD step
       to state that is not learned by gradient (spectral-norm power iterations, running statistics
       of observations). None: nothing to do.
-    info: static facts for evaluation and plots, never read by the trainer: ``family`` ("mimax",
-      "dmin" or "task"), ``obs_indices``, ``obs_scale``, and per family ``prior``, ``num_skills``,
-      ``infer_latent(params, obs) -> z``, ``posterior_mean(params, obs) -> mean or logits``,
-      ``target``, ``logit(params, x) -> []``.
+    spec: what evaluation, plots and the command line may know about the objective, typed by
+      family (``blx.objectives.specs``: ``MimaxSpec``, ``DminSpec``, ``TaskSpec``); never read by
+      the trainer.
   """
 
   init: Callable[[jax.Array, int], Params]
@@ -65,7 +65,7 @@ class Objective(NamedTuple):
   conditions_policy: bool = False
   name: str = "objective"
   post_update: Callable[[Params, Transition], Params] | None = None
-  info: Mapping[str, Any] = types.MappingProxyType({})
+  spec: Spec = TaskSpec()
 
 
 def task() -> Objective:
@@ -78,5 +78,5 @@ def task() -> Objective:
       latent_size=0,
       conditions_policy=False,
       name="task",
-      info=types.MappingProxyType({"family": "task"}),
+      spec=TaskSpec(),
   )

@@ -23,7 +23,6 @@ from __future__ import annotations
 
 import inspect
 import itertools
-import types
 from typing import Any, Callable, Sequence
 
 import jax
@@ -33,14 +32,11 @@ import numpy as np
 from blx import running_stats
 from blx.objectives import dmin, mimax, priors, spectral
 from blx.objectives.base import Objective, Transition, task
+from blx.objectives.specs import DminSpec, MimaxSpec
 from blx.objectives.targets import Target, multimode_gaussian
 
 __all__ = ["gcrl", "fixed_gcrl", "cdiayn", "diayn", "diayn_full", "gail", "gail2", "airl", "fairl",
-           "mle", "task", "make", "list_objectives", "options_of", "resolve_indices", "MIMAX",
-           "DMIN"]
-
-MIMAX = ("gcrl", "fixed_gcrl", "cdiayn", "diayn", "diayn_full")
-DMIN = ("gail", "gail2", "airl", "fairl", "mle")
+           "mle", "task", "make", "list_objectives", "options_of", "resolve_indices"]
 
 Indices = Sequence[int] | str | Sequence[str] | None
 
@@ -95,6 +91,12 @@ def _check_types(who: str, *, numbers: dict | None = None, flags: dict | None = 
                      f"{hidden!r}")
 
 
+def _check_spectral(who: str, spectral_iteration: Any) -> None:
+  if spectral_iteration not in SPECTRAL_ITERATIONS:
+    raise ValueError(f"{who}: spectral_iteration={spectral_iteration!r} is not valid; valid values "
+                     f"are {list(SPECTRAL_ITERATIONS)}")
+
+
 def _check_options(who: str, *, logits_clip: float, obs_scale: float) -> None:
   _check_types(who, numbers=dict(logits_clip=logits_clip, obs_scale=obs_scale))
   if not logits_clip > 0:
@@ -103,14 +105,28 @@ def _check_options(who: str, *, logits_clip: float, obs_scale: float) -> None:
     raise ValueError(f"{who}: obs_scale must be > 0, got {obs_scale}")
 
 
-class _Disc:
-  """A discriminator network with optional spectral norm and input normalisation (pure helpers)."""
+SPECTRAL_ITERATIONS = ("fixed", "persistent")
 
-  def __init__(self, out: int, hidden: Sequence[int], spectral_norm: bool, normalize_obs: bool):
+
+class _Disc:
+  """A discriminator network with optional spectral norm and input normalisation (pure helpers).
+
+  ``spectral_iteration``: "fixed" (Braxlines) runs one power iteration per call from the start
+  vector drawn at init, so sigma(W) is a loose, one-step estimate; "persistent" carries the vector
+  across SGD steps (``post_update``), so the estimate converges to the exact largest singular value.
+  """
+
+  def __init__(self, out: int, hidden: Sequence[int], spectral_norm: bool, normalize_obs: bool,
+               spectral_iteration: str = "fixed"):
     self.net = spectral.DiscriminatorMLP(out=out, hidden=tuple(hidden),
                                          spectral_norm=spectral_norm)
     self.spectral_norm = spectral_norm
+    self.persistent = spectral_norm and spectral_iteration == "persistent"
     self.normalize_obs = normalize_obs
+
+  @property
+  def has_post_update(self) -> bool:
+    return self.persistent or self.normalize_obs
 
   def init(self, key: jax.Array, in_size: int) -> dict:
     params = {"disc": dict(self.net.init(key, jnp.zeros((in_size,))))}
@@ -126,7 +142,7 @@ class _Disc:
   def post_update(self, params: dict, x_batch: jax.Array) -> dict:
     """Advances the spectral-norm vectors one power iteration; merges x_batch into the stats."""
     params = dict(params)
-    if self.spectral_norm:
+    if self.persistent:
       variables = params["disc"]
       _, updates = self.net.apply(variables, jnp.zeros(x_batch.shape[-1:]), update_stats=True,
                                   mutable=["spectral"])
@@ -136,17 +152,14 @@ class _Disc:
     return params
 
 
-def _info(**kwargs) -> types.MappingProxyType:
-  return types.MappingProxyType(kwargs)
-
-
 # ------------------------------------------------------------------------------------------------
 # MI-max
 
 
 def _mimax(name: str, *, prior: priors.Prior, posterior: str, indices, obs_scale: float,
            logits_clip: float, spectral_norm: bool, env_reward_multiplier: float,
-           normalize_obs: bool, hidden: Sequence[int]) -> Objective:
+           normalize_obs: bool, hidden: Sequence[int], spectral_iteration: str = "fixed",
+           eval_indices=None) -> Objective:
   """Builds an MI-max objective; ``posterior`` is "identity" (q = N(s_idx, I)), "gaussian" (an
   MLP mean) or "categorical" (MLP logits)."""
   _check_options(name, logits_clip=logits_clip, obs_scale=obs_scale)
@@ -158,7 +171,9 @@ def _mimax(name: str, *, prior: priors.Prior, posterior: str, indices, obs_scale
                      f"{name}'s posterior N(s_idx, I) has none")
   if posterior == "identity" and len(indices) != prior.dim:
     raise ValueError(f"{name}: {len(indices)} obs_indices for a {prior.dim}-D latent")
-  disc = _Disc(prior.dim, hidden, spectral_norm, normalize_obs) if learned else None
+  _check_spectral(name, spectral_iteration)
+  disc = _Disc(prior.dim, hidden, spectral_norm, normalize_obs,
+               spectral_iteration) if learned else None
   categorical = posterior == "categorical"
   offset = (mimax.categorical_offset(logits_clip) if categorical
             else mimax.gaussian_offset(prior.dim))
@@ -207,11 +222,11 @@ def _mimax(name: str, *, prior: priors.Prior, posterior: str, indices, obs_scale
   return Objective(
       init=init, sample_latent=prior.sample, reward=reward, loss=loss, latent_size=prior.dim,
       conditions_policy=True, name=name,
-      post_update=post_update if learned and (spectral_norm or normalize_obs) else None,
-      info=_info(family="mimax", obs_indices=indices, obs_scale=float(obs_scale), prior=prior,
-                 num_skills=prior.dim if categorical else None, offset=offset,
-                 posterior=posterior, posterior_out=posterior_out, infer_latent=infer_latent,
-                 log_q=log_q))
+      post_update=post_update if learned and disc.has_post_update else None,
+      spec=MimaxSpec(prior=prior, obs_indices=indices,
+                     eval_indices=eval_indices if eval_indices is not None else indices,
+                     obs_scale=float(obs_scale), offset=offset, posterior=posterior,
+                     posterior_out=posterior_out, infer_latent=infer_latent, log_q=log_q))
 
 
 def _need_indices(name, obs_indices, env):
@@ -248,44 +263,45 @@ def gcrl(*, obs_indices: Indices = None, env: Any = None, obs_scale: float = 5.0
 
 def cdiayn(*, obs_indices: Indices = None, env: Any = None, obs_scale: float = 5.0,
            spectral_norm: bool = False, env_reward_multiplier: float = 0.0,
-           normalize_obs: bool = False, hidden: Sequence[int] = (32, 32)) -> Objective:
+           normalize_obs: bool = False, hidden: Sequence[int] = (32, 32),
+           spectral_iteration: str = "fixed") -> Objective:
   """Continuous DIAYN: z ~ U(-1, 1)^d, q(z|s) = N(MLP(s_idx), I) with a learned MLP."""
   indices = _need_indices("cdiayn", obs_indices, env)
   return _mimax("cdiayn", prior=priors.uniform_prior(-1.0, 1.0, len(indices)),
                 posterior="gaussian", indices=indices, obs_scale=obs_scale, logits_clip=5.0,
                 spectral_norm=spectral_norm, env_reward_multiplier=env_reward_multiplier,
-                normalize_obs=normalize_obs, hidden=hidden)
+                normalize_obs=normalize_obs, hidden=hidden, spectral_iteration=spectral_iteration)
 
 
 def diayn(*, num_skills: int = 8, obs_indices: Indices = None, env: Any = None,
           obs_scale: float = 5.0, logits_clip: float = 5.0, spectral_norm: bool = False,
           env_reward_multiplier: float = 0.0, normalize_obs: bool = False,
-          hidden: Sequence[int] = (32, 32)) -> Objective:
+          hidden: Sequence[int] = (32, 32), spectral_iteration: str = "fixed") -> Objective:
   """DIAYN (Eysenbach et al. 2019): K one-hot skills, q(z|s) = Cat(MLP(s_idx)) on chosen features;
   r = log softmax(clip(l - max l, -c))[z] + c, which is c - log K for an undecided discriminator."""
   indices = _need_indices("diayn", obs_indices, env)
   return _mimax("diayn", prior=priors.categorical_prior(num_skills), posterior="categorical",
                 indices=indices, obs_scale=obs_scale, logits_clip=logits_clip,
                 spectral_norm=spectral_norm, env_reward_multiplier=env_reward_multiplier,
-                normalize_obs=normalize_obs, hidden=hidden)
+                normalize_obs=normalize_obs, hidden=hidden, spectral_iteration=spectral_iteration)
 
 
 def diayn_full(*, num_skills: int = 8, obs_scale: float = 5.0, logits_clip: float = 5.0,
                spectral_norm: bool = False, env_reward_multiplier: float = 0.0,
                normalize_obs: bool = False, hidden: Sequence[int] = (32, 32),
-               obs_indices: Indices = None, env: Any = None) -> Objective:
+               obs_indices: Indices = None, env: Any = None,
+               spectral_iteration: str = "fixed") -> Objective:
   """DIAYN on the full observation (no feature engineering): q(z|s) = Cat(MLP(s)).
 
   ``obs_indices`` does not restrict the discriminator here; it only names the dimensions that
   evaluation (MI, LGR) and plots look at, as in the paper.
   """
   indices = resolve_indices(obs_indices, env, who="diayn_full")
-  objective = _mimax("diayn_full", prior=priors.categorical_prior(num_skills),
-                     posterior="categorical", indices=None, obs_scale=obs_scale,
-                     logits_clip=logits_clip, spectral_norm=spectral_norm,
-                     env_reward_multiplier=env_reward_multiplier, normalize_obs=normalize_obs,
-                     hidden=hidden)
-  return objective._replace(info=_info(**{**objective.info, "eval_indices": indices}))
+  return _mimax("diayn_full", prior=priors.categorical_prior(num_skills),
+                posterior="categorical", indices=None, obs_scale=obs_scale,
+                logits_clip=logits_clip, spectral_norm=spectral_norm,
+                env_reward_multiplier=env_reward_multiplier, normalize_obs=normalize_obs,
+                hidden=hidden, spectral_iteration=spectral_iteration, eval_indices=indices)
 
 
 # ------------------------------------------------------------------------------------------------
@@ -307,7 +323,8 @@ def _default_target(name, target, indices, obs_scale, num_modes) -> Target:
 def _dmin(name: str, transform: Callable[[jax.Array], jax.Array] | None, *, target, obs_indices,
           env, obs_scale: float, num_modes: int, include_action: bool, logits_clip: float,
           spectral_norm: bool, gradient_penalty_weight: float, env_reward_multiplier: float,
-          normalize_obs: bool, balance_data: bool, hidden: Sequence[int]) -> Objective:
+          normalize_obs: bool, balance_data: bool, hidden: Sequence[int],
+          clip_loss_logits: bool = True, spectral_iteration: str = "fixed") -> Objective:
   indices = resolve_indices(obs_indices, env, who=name)
   if indices is None:
     raise ValueError(f"{name}: give obs_indices (ints or a name such as 'vel_xy' with env=)")
@@ -315,7 +332,9 @@ def _dmin(name: str, transform: Callable[[jax.Array], jax.Array] | None, *, targ
   _check_types(name, numbers=dict(env_reward_multiplier=env_reward_multiplier,
                                   gradient_penalty_weight=gradient_penalty_weight),
                flags=dict(include_action=include_action, spectral_norm=spectral_norm,
-                          normalize_obs=normalize_obs, balance_data=balance_data), hidden=hidden)
+                          normalize_obs=normalize_obs, balance_data=balance_data,
+                          clip_loss_logits=clip_loss_logits), hidden=hidden)
+  _check_spectral(name, spectral_iteration)
   target = _default_target(name, target, indices, obs_scale, num_modes)
   if gradient_penalty_weight < 0:
     raise ValueError(f"{name}: gradient_penalty_weight must be >= 0, got {gradient_penalty_weight}")
@@ -328,7 +347,7 @@ def _dmin(name: str, transform: Callable[[jax.Array], jax.Array] | None, *, targ
                      f"{expected}")
   target_samples = jnp.asarray(target.samples, jnp.float32)
   learned = transform is not None
-  disc = _Disc(1, hidden, spectral_norm, normalize_obs) if learned else None
+  disc = _Disc(1, hidden, spectral_norm, normalize_obs, spectral_iteration) if learned else None
 
   def disc_input(obs, action):
     x = _select(obs, indices)
@@ -369,11 +388,12 @@ def _dmin(name: str, transform: Callable[[jax.Array], jax.Array] | None, *, targ
       m = min(x_policy.shape[0], x_target.shape[0])
       x_policy = x_policy[jax.random.choice(policy_key, x_policy.shape[0], (m,), replace=False)]
       x_target = x_target[jax.random.choice(target_key, x_target.shape[0], (m,), replace=False)]
-    # The loss sees the unclipped logit: a clip here would stop the gradient wherever the logit
-    # extrapolates past +-c, and states the policy reaches there could never be corrected (the
-    # original clipped inside its Bernoulli). The clip bounds the reward only.
-    logits_policy = jax.vmap(raw_logit, (None, 0))(params, x_policy)
-    logits_target = jax.vmap(raw_logit, (None, 0))(params, x_target)
+    # Braxlines clips the logit inside its Bernoulli, so the loss has no gradient where |l| > c.
+    # clip_loss_logits=False trains on the raw logit instead (the clip then bounds the reward only),
+    # so states whose logit extrapolates past +-c can still be corrected.
+    loss_logit = logit if clip_loss_logits else raw_logit
+    logits_policy = jax.vmap(loss_logit, (None, 0))(params, x_policy)
+    logits_target = jax.vmap(loss_logit, (None, 0))(params, x_target)
     value = dmin.discriminator_loss(logits_policy, logits_target)
     metrics = {"loss/disc": value,
                "disc/policy_prob": jnp.mean(jax.nn.sigmoid(logits_policy)),
@@ -391,9 +411,9 @@ def _dmin(name: str, transform: Callable[[jax.Array], jax.Array] | None, *, targ
   return Objective(
       init=init, sample_latent=lambda key: jnp.zeros((0,)), reward=reward, loss=loss,
       latent_size=0, conditions_policy=False, name=name,
-      post_update=post_update if learned and (spectral_norm or normalize_obs) else None,
-      info=_info(family="dmin", obs_indices=indices, obs_scale=float(obs_scale), target=target,
-                 include_action=include_action, logit=logit if learned else None))
+      post_update=post_update if learned and disc.has_post_update else None,
+      spec=DminSpec(obs_indices=indices, obs_scale=float(obs_scale), target=target,
+                    include_action=include_action, logit=logit if learned else None))
 
 
 def _mle_offset(target: Target, dim: int, obs_scale: float) -> float:
@@ -413,7 +433,8 @@ def _dmin_preset(name: str, transform_factory: Callable[[float], Callable] | Non
              logits_clip: float = 5.0, spectral_norm: bool = False,
              gradient_penalty_weight: float = 0.0, env_reward_multiplier: float = 0.0,
              normalize_obs: bool = False, balance_data: bool = True,
-             hidden: Sequence[int] = (32, 32)) -> Objective:
+             hidden: Sequence[int] = (32, 32), clip_loss_logits: bool = True,
+             spectral_iteration: str = "fixed") -> Objective:
     if transform_factory is None and (include_action or spectral_norm or normalize_obs
                                       or gradient_penalty_weight):
       raise ValueError("mle: the reward is the target's log-density; include_action, "
@@ -424,7 +445,8 @@ def _dmin_preset(name: str, transform_factory: Callable[[float], Callable] | Non
                  logits_clip=logits_clip, spectral_norm=spectral_norm,
                  gradient_penalty_weight=gradient_penalty_weight,
                  env_reward_multiplier=env_reward_multiplier, normalize_obs=normalize_obs,
-                 balance_data=balance_data, hidden=hidden)
+                 balance_data=balance_data, hidden=hidden, clip_loss_logits=clip_loss_logits,
+                 spectral_iteration=spectral_iteration)
 
   preset.__name__ = preset.__qualname__ = name
   preset.__doc__ = doc + """
@@ -433,7 +455,10 @@ def _dmin_preset(name: str, transform_factory: Callable[[float], Callable] | Non
   ``obs_indices`` (ints, or names with ``env=``), ``include_action`` (the discriminator also sees
   a_t; the target samples must then hold [s_idx, a]), ``logits_clip`` c, ``spectral_norm``,
   ``gradient_penalty_weight``, ``env_reward_multiplier``, ``normalize_obs`` (running statistics of
-  the discriminator input), ``balance_data`` (subsample both sets to the smaller size).
+  the discriminator input), ``balance_data`` (subsample both sets to the smaller size),
+  ``clip_loss_logits`` (default True, Braxlines: the loss sees the logit clipped to +-c; False
+  trains on the raw logit), ``spectral_iteration`` ("fixed", Braxlines: one power iteration per
+  call from the initial vector; "persistent": the vector is carried across SGD steps).
   """
   return preset
 

@@ -1,11 +1,13 @@
 """Spectral normalisation (Miyato et al. 2018) and the discriminator MLP that can use it.
 
 ``spectral_normalize`` is a pure function: the power-iteration vector u is an explicit input and
-output. In ``SNDense`` it lives in the flax collection ``"spectral"``; ``apply`` uses the stored u
-(one more iteration inside the call, without storing it), and applying with
-``update_stats=True, mutable=["spectral"]`` returns the advanced u, which an objective's
-``post_update`` writes back after every SGD step. So u persists across steps (the original recomputed
-it from scratch each call).
+output. In ``SNDense`` it lives in the flax collection ``"spectral"``; ``apply`` runs one iteration
+from the stored u inside the call, without storing it. Left alone, u stays the vector drawn at init,
+so every call estimates sigma(W) with one iteration from the same start: Braxlines' spectral norm
+(the presets' default, ``spectral_iteration="fixed"``). Applying with ``update_stats=True,
+mutable=["spectral"]`` returns the advanced u; an objective's ``post_update`` writes it back after
+every SGD step with ``spectral_iteration="persistent"``, and sigma(W) converges to the exact largest
+singular value (a tighter constraint than the original's).
 """
 
 from __future__ import annotations

@@ -3,8 +3,9 @@
 from blx.training.config import PPOConfig, ppo_defaults
 from blx.training.loop import NonFiniteError, TrainResult, train
 from blx.training.losses import clipped_surrogate, gae
-from blx.training.ppo import Params, Trainer, TrainState, make_policy, make_train, make_trainer
+from blx.training.ppo import (Params, PolicyParams, Trainer, TrainState, make_policy, make_train,
+                              make_trainer, policy_params)
 
 __all__ = ["PPOConfig", "ppo_defaults", "NonFiniteError", "TrainResult", "train",
-           "clipped_surrogate", "gae", "Params", "Trainer", "TrainState", "make_policy",
+           "clipped_surrogate", "gae", "Params", "PolicyParams", "policy_params", "Trainer", "TrainState", "make_policy",
            "make_train", "make_trainer"]

@@ -15,6 +15,14 @@ class PPOConfig:
   Per iteration, every one of ``num_envs`` envs is unrolled for ``unroll_length`` steps,
   ``batch_size * num_minibatches // num_envs`` times; the collected sequences are then used for
   ``num_updates_per_batch`` epochs of ``num_minibatches`` SGD steps on ``batch_size`` sequences.
+
+  Both switches below default to Braxlines' PPO:
+
+  * ``normalize_advantage``: standardise GAE advantages per minibatch (common in other PPOs; the
+    original does not, so ``entropy_cost`` and ``reward_scaling`` keep their meaning there).
+  * ``normalize_latent``: the policy's and value's input [obs, z] goes through the running
+    normaliser as one vector, as the original (its z is appended to the observation by a wrapper).
+    False: only obs is normalised and z is appended raw.
   """
 
   num_timesteps: int = 30_000_000
@@ -32,6 +40,8 @@ class PPOConfig:
   clipping_epsilon: float = 0.3
   reward_scaling: float = 10.0
   normalize_observations: bool = True
+  normalize_advantage: bool = False
+  normalize_latent: bool = True
   max_grad_norm: float | None = None
   policy_hidden: tuple[int, ...] = (32, 32, 32, 32)
   value_hidden: tuple[int, ...] = (256, 256, 256, 256, 256)
@@ -55,9 +65,9 @@ class PPOConfig:
     if not (self.max_grad_norm is None or (real(self.max_grad_norm) and self.max_grad_norm > 0)):
       raise ValueError(f"PPOConfig.max_grad_norm must be None or a positive number, got "
                        f"{self.max_grad_norm!r}")
-    if not isinstance(self.normalize_observations, bool):
-      raise ValueError(f"PPOConfig.normalize_observations must be True or False, got "
-                       f"{self.normalize_observations!r}")
+    for name in ("normalize_observations", "normalize_advantage", "normalize_latent"):
+      if not isinstance(getattr(self, name), bool):
+        raise ValueError(f"PPOConfig.{name} must be True or False, got {getattr(self, name)!r}")
     if self.eval_episode_length is not None and (
         not isinstance(self.eval_episode_length, int) or isinstance(self.eval_episode_length, bool)
         or self.eval_episode_length < 1):

@@ -14,7 +14,7 @@ import numpy as np
 from blx.objectives.base import Objective
 from blx.training import checkpoint
 from blx.training.config import PPOConfig
-from blx.training.ppo import TrainState, make_trainer
+from blx.training.ppo import PolicyParams, TrainState, make_trainer, policy_params
 
 __all__ = ["TrainResult", "train", "NonFiniteError"]
 
@@ -27,7 +27,7 @@ class TrainResult(NamedTuple):
   """What ``train`` returns.
 
   Attributes:
-    params: ``{"normalizer", "policy", "value", "objective"}``, each leaf with a leading seed axis.
+    params: ``PolicyParams`` (normaliser, policy, objective), each leaf with a leading seed axis.
     metrics: one dict per evaluation: ``env_steps``, ``time``, training means and ``eval/...``
       values, each a list over seeds.
     policy: ``policy(params, obs, z=None, key=None, deterministic=True) -> action`` for one seed's
@@ -35,7 +35,7 @@ class TrainResult(NamedTuple):
     state: the final ``TrainState`` (leading seed axis).
   """
 
-  params: dict
+  params: PolicyParams
   metrics: list[dict]
   policy: Callable[..., jax.Array]
   state: TrainState
@@ -83,12 +83,12 @@ def train(env: Any, objective: Objective, config: PPOConfig, *, seeds: Sequence[
   eval_keys = jax.vmap(lambda k: jax.random.split(k)[1])(keys)
   init_fn = jax.jit(jax.vmap(trainer.init))
   chunk_fn = jax.jit(jax.vmap(trainer.chunk))
-  eval_fn = jax.jit(jax.vmap(trainer.evaluate))
+  eval_fn = jax.jit(jax.vmap(lambda state, key: trainer.evaluate(policy_params(state), key)))
   report = _print_progress if progress is True else (progress or None)
   extra_eval_fn = None
   if evaluate is not None:
     extra_eval_fn = jax.jit(jax.vmap(
-        lambda state, key: evaluate(trainer.policy, _export_params(state), key)))
+        lambda state, key: evaluate(trainer.policy, policy_params(state), key)))
 
   start_chunk, history = 0, []
   meta_base = {"seeds": seeds, "config": dataclasses.asdict(config), "objective": objective.name,
@@ -140,12 +140,7 @@ def train(env: Any, objective: Objective, config: PPOConfig, *, seeds: Sequence[
             "resume=True) to continue", file=sys.stderr)
     raise
 
-  return TrainResult(params=_export_params(state), metrics=history, policy=trainer.policy, state=state)
-
-
-def _export_params(state: TrainState) -> dict:
-  return {"normalizer": state.normalizer, "policy": state.params.policy,
-          "value": state.params.value, "objective": state.params.objective}
+  return TrainResult(params=policy_params(state), metrics=history, policy=trainer.policy, state=state)
 
 
 def _jsonable(x):
@@ -154,10 +149,15 @@ def _jsonable(x):
 
 
 def _check_finite(metrics: dict, first_iteration: int, seeds, checkpoint_dir) -> None:
-  for quantity in ("loss", "params", "observation"):
-    flags = np.asarray(metrics[f"nonfinite/{quantity}"])  # [seeds, iterations]
-    if flags.any():
-      seed_idx, it = np.argwhere(flags)[0]
-      kept = (f"; the last good checkpoint in {checkpoint_dir} is kept" if checkpoint_dir else "")
-      raise NonFiniteError(f"non-finite {quantity} at iteration {first_iteration + int(it)} "
-                           f"(seed {seeds[int(seed_idx)]}){kept}")
+  """Raises at the first iteration (and seed) where anything went non-finite, naming every
+  quantity that did there: a non-finite observation points at the physics, a non-finite loss with
+  finite observations at the learning."""
+  quantities = ("observation", "loss", "params")
+  flags = {q: np.asarray(metrics[f"nonfinite/{q}"]) for q in quantities}  # [seeds, iterations]
+  bad = np.any(np.stack(list(flags.values())), axis=0)
+  if bad.any():
+    seed_idx, it = min(np.argwhere(bad), key=lambda x: (x[1], x[0]))
+    which = [q for q in quantities if flags[q][seed_idx, it]]
+    kept = (f"; the last good checkpoint in {checkpoint_dir} is kept" if checkpoint_dir else "")
+    raise NonFiniteError(f"non-finite {' and '.join(which)} at iteration "
+                         f"{first_iteration + int(it)} (seed {seeds[int(seed_idx)]}){kept}")

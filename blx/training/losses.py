@@ -6,7 +6,7 @@ import chex
 import jax
 import jax.numpy as jnp
 
-__all__ = ["gae", "clipped_surrogate"]
+__all__ = ["gae", "sequence_advantages", "clipped_surrogate"]
 
 
 def gae(reward_t: jax.Array, value_t: jax.Array, next_value_t: jax.Array,
@@ -42,6 +42,34 @@ def gae(reward_t: jax.Array, value_t: jax.Array, next_value_t: jax.Array,
 
   _, advantages = jax.lax.scan(backward, jnp.zeros((), delta.dtype), (delta, done_t), reverse=True)
   return advantages, advantages + value_t
+
+
+def sequence_advantages(reward: jax.Array, values: jax.Array, done: jax.Array,
+                        truncation: jax.Array, *, discount: float,
+                        lam: float) -> tuple[jax.Array, jax.Array]:
+  """GAE for rollout sequences ``[B, T]`` of auto-reset envs, from one value pass ``[B, T + 1]``.
+
+  ``values[:, t]`` is V(s_t) for t < T and ``values[:, T]`` is V(s'_{T-1}), the true state after the
+  last step. Inside a sequence V(s'_t) = V(s_{t+1}), except after an episode end, where s_{t+1} is
+  already the next episode's first state:
+
+  * a termination (done, not truncated) does not bootstrap, so that value is never used;
+  * a truncation (time limit) should bootstrap from V(s'_t), which is known only at the last step
+    (``values[:, T]``); inside the sequence its delta is set to 0 (``known_t`` of ``gae``).
+
+  Returns:
+    ``(advantages [B, T], value targets [B, T])``.
+  """
+  chex.assert_rank([reward, values, done, truncation], 2)
+  chex.assert_equal_shape([reward, done, truncation])
+  chex.assert_axis_dimension(values, 1, reward.shape[1] + 1)
+  value, next_value = values[:, :-1], values[:, 1:]
+  termination = done * (1.0 - truncation)
+  inside = jnp.arange(reward.shape[1]) < reward.shape[1] - 1
+  known = 1.0 - truncation * inside
+  return jax.vmap(lambda r, v, nv, t, d, k: gae(r, v, nv, t, d, discount=discount, lam=lam,
+                                                known_t=k))(
+      reward, value, next_value, termination, done, known)
 
 
 def clipped_surrogate(log_prob: jax.Array, old_log_prob: jax.Array, advantage: jax.Array, *,

@@ -26,7 +26,8 @@ from blx.objectives.base import Objective, Transition
 from blx.training import losses, networks
 from blx.training.config import PPOConfig
 
-__all__ = ["Params", "TrainState", "Trainer", "make_trainer", "make_train", "make_policy"]
+__all__ = ["Params", "PolicyParams", "TrainState", "Trainer", "make_trainer", "make_train",
+           "make_policy", "network_input", "policy_params"]
 
 
 @struct.dataclass
@@ -36,6 +37,21 @@ class Params:
   policy: Any
   value: Any
   objective: Any
+
+
+class PolicyParams(NamedTuple):
+  """What acting and evaluating need, exported by training (one seed, or a leading seed axis).
+
+  Attributes:
+    normalizer: the running statistics of the policy's input.
+    policy: the policy network's parameters.
+    objective: the objective's parameters (evaluation infers skills for goals with them; plots
+      draw the discriminator).
+  """
+
+  normalizer: networks.RunningStats
+  policy: Any
+  objective: Any = None
 
 
 @struct.dataclass
@@ -78,18 +94,17 @@ class Trainer(NamedTuple):
       physics, the objective's reward); sequences ``[num_unrolls * num_envs, unroll_length]``.
     update: ``(TrainState, Rollout) -> (TrainState, metrics)``: the learning half (normaliser,
       PPO and objective losses, SGD). Profilers time the halves apart.
-    evaluate: ``(TrainState, key) -> metrics`` from deterministic episodes on fresh envs.
+    evaluate: ``(PolicyParams, key) -> metrics`` from deterministic episodes on fresh envs.
     train: ``key -> (TrainState, metrics)``, the whole run: ``num_chunks`` chunks, each followed by an
       evaluation; metrics have a leading ``[num_chunks]`` axis.
-    policy: ``(params, obs, z=None, key=None, deterministic=True) -> action`` with
-      ``params = {"normalizer": ..., "policy": ...}``.
+    policy: ``(params: PolicyParams, obs, z=None, key=None, deterministic=True) -> action``.
   """
 
   init: Callable[[jax.Array], TrainState]
   chunk: Callable[[TrainState], tuple[TrainState, dict]]
   collect: Callable[[TrainState], tuple[TrainState, "Rollout"]]
   update: Callable[[TrainState, "Rollout"], tuple[TrainState, dict]]
-  evaluate: Callable[[TrainState, jax.Array], dict]
+  evaluate: Callable[[PolicyParams, jax.Array], dict]
   train: Callable[[jax.Array], tuple[TrainState, dict]]
   policy: Callable[..., jax.Array]
   num_chunks: int
@@ -116,14 +131,28 @@ def _transitions(batch: Rollout) -> Transition:
                     flat(batch.env_reward), flat(batch.z))
 
 
-def make_policy(policy_net: networks.MLP, normalize_observations: bool) -> Callable:
+def network_input(stats: networks.RunningStats, obs: jax.Array, z: jax.Array | None, *,
+                  normalize_observations: bool, normalize_latent: bool) -> jax.Array:
+  """The policy's and value's input ``[..., O (+ Z)]``.
+
+  With ``normalize_latent`` the running normaliser covers [obs, z] together (Braxlines: z is part of
+  the observation); otherwise only obs is normalised and z is appended as it is.
+  """
+  if z is None or not z.shape[-1]:
+    return networks.normalize(stats, obs, normalize_observations)
+  if normalize_latent:
+    return networks.normalize(stats, jnp.concatenate([obs, z], axis=-1), normalize_observations)
+  return jnp.concatenate([networks.normalize(stats, obs, normalize_observations), z], axis=-1)
+
+
+def make_policy(policy_net: networks.MLP, normalize_observations: bool,
+                normalize_latent: bool = True) -> Callable:
   """The inference function ``policy(params, obs, z=None, key=None, deterministic=True)``."""
 
   def policy(params, obs, z=None, key=None, deterministic=True):
-    x = networks.normalize(params["normalizer"], obs, normalize_observations)
-    if z is not None and z.shape[-1]:
-      x = jnp.concatenate([x, z], axis=-1)
-    logits = policy_net.apply(params["policy"], x)
+    x = network_input(params.normalizer, obs, z, normalize_observations=normalize_observations,
+                      normalize_latent=normalize_latent)
+    logits = policy_net.apply(params.policy, x)
     if deterministic:
       return networks.deterministic_action(logits)
     if key is None:
@@ -155,15 +184,18 @@ def make_trainer(env: Any, objective: Objective, config: PPOConfig) -> Trainer:
       optax.clip_by_global_norm(c.max_grad_norm) if c.max_grad_norm else optax.identity(),
       optax.adam(c.learning_rate))
   shard = _data_sharding(c.num_envs)
-  norm = lambda stats, x: networks.normalize(stats, x, c.normalize_observations)
 
   iterations = -(-c.num_timesteps // c.env_steps_per_iteration)
   num_chunks = min(c.num_evals, iterations)
   iterations_per_chunk = -(-iterations // num_chunks)
 
+  latent_in_stats = objective.conditions_policy and c.normalize_latent and z_size > 0
+  stats_size = obs_size + (z_size if latent_in_stats else 0)
+
   def policy_input(stats, obs, z):
-    x = norm(stats, obs)
-    return jnp.concatenate([x, z], -1) if objective.conditions_policy else x
+    return network_input(stats, obs, z if objective.conditions_policy else None,
+                         normalize_observations=c.normalize_observations,
+                         normalize_latent=c.normalize_latent)
 
   def init(key: jax.Array) -> TrainState:
     policy_key, value_key, obj_key, env_key, z_key, key = jax.random.split(key, 6)
@@ -174,7 +206,7 @@ def make_trainer(env: Any, objective: Objective, config: PPOConfig) -> Trainer:
     env_state = jax.vmap(train_env.reset)(jax.random.split(env_key, c.num_envs))
     z = jax.vmap(objective.sample_latent)(jax.random.split(z_key, c.num_envs))
     return TrainState(params=params, opt_state=optimizer.init(params),
-                      normalizer=networks.init_stats(obs_size), env_state=shard(env_state),
+                      normalizer=networks.init_stats(stats_size), env_state=shard(env_state),
                       z=shard(z), key=key, env_steps=jnp.zeros((), jnp.float32),
                       iteration=jnp.zeros((), jnp.int32))
 
@@ -185,13 +217,13 @@ def make_trainer(env: Any, objective: Objective, config: PPOConfig) -> Trainer:
       action = jnp.tanh(raw)
     with jax.named_scope("physics"):
       next_state = jax.vmap(train_env.step)(env_state, action)
-    next_obs = next_state.info["pre_reset_obs"]
+    next_obs = next_state.pre_reset_obs
     transition = Transition(env_state.obs, action, next_obs, next_state.reward, z)
     with jax.named_scope("objective"):
       reward = jax.vmap(objective.reward, (None, 0))(
           jax.lax.stop_gradient(params.objective), transition)
     step = Rollout(env_state.obs, raw, action, networks.log_prob_raw(logits, raw), next_obs, reward,
-                   next_state.reward, next_state.done, next_state.info["truncation"], z)
+                   next_state.reward, next_state.done, next_state.truncation, z)
     return shard(next_state), step
 
   def loss_fn(params: Params, batch: Rollout, stats, key):
@@ -206,16 +238,12 @@ def make_trainer(env: Any, objective: Objective, config: PPOConfig) -> Trainer:
       # first state. Terminations do not bootstrap; a truncation there gets delta 0 (known_t).
       x_last = policy_input(stats, batch.next_obs[:, -1:], batch.z[:, -1:])
       values = value_net.apply(params.value, jnp.concatenate([x, x_last], axis=1))[..., 0]
-    value, next_value = values[:, :-1], values[:, 1:]
-    termination = batch.done * (1.0 - batch.truncation)
-    inside = jnp.arange(batch.done.shape[1]) < batch.done.shape[1] - 1
-    known = 1.0 - batch.truncation * inside
-    advantage, target = jax.vmap(
-        lambda r, v, nv, t, d, k: losses.gae(r, v, nv, t, d, discount=c.discounting,
-                                             lam=c.gae_lambda, known_t=k))(
-        batch.reward * c.reward_scaling, jax.lax.stop_gradient(value),
-        jax.lax.stop_gradient(next_value), termination, batch.done, known)
-    advantage = (advantage - advantage.mean()) / (advantage.std() + 1e-8)
+    value = values[:, :-1]
+    advantage, target = losses.sequence_advantages(
+        batch.reward * c.reward_scaling, jax.lax.stop_gradient(values), batch.done,
+        batch.truncation, discount=c.discounting, lam=c.gae_lambda)
+    if c.normalize_advantage:
+      advantage = (advantage - advantage.mean()) / (advantage.std() + 1e-8)
     log_prob = networks.log_prob_raw(logits, batch.raw_action)
     policy_loss = losses.clipped_surrogate(log_prob, batch.log_prob, advantage,
                                            epsilon=c.clipping_epsilon)
@@ -264,7 +292,8 @@ def make_trainer(env: Any, objective: Objective, config: PPOConfig) -> Trainer:
     key, sgd_key = jax.random.split(state.key)
     normalizer = state.normalizer
     if c.normalize_observations:
-      normalizer = networks.update_stats(normalizer, data.obs.reshape(-1, obs_size))
+      seen = jnp.concatenate([data.obs, data.z], -1) if latent_in_stats else data.obs
+      normalizer = networks.update_stats(normalizer, seen.reshape(-1, stats_size))
 
     def epoch(carry, key):
       perm_key, step_key = jax.random.split(key)
@@ -301,20 +330,19 @@ def make_trainer(env: Any, objective: Objective, config: PPOConfig) -> Trainer:
   def chunk(state: TrainState):
     return jax.lax.scan(iteration, state, None, length=iterations_per_chunk)
 
-  policy = make_policy(policy_net, c.normalize_observations)
+  policy = make_policy(policy_net, c.normalize_observations, c.normalize_latent)
 
-  def evaluate(state: TrainState, key: jax.Array) -> dict:
+  def evaluate(params: PolicyParams, key: jax.Array) -> dict:
     reset_key, z_key = jax.random.split(key)
     env_state = jax.vmap(eval_env.reset)(jax.random.split(reset_key, c.num_eval_envs))
     z = jax.vmap(objective.sample_latent)(jax.random.split(z_key, c.num_eval_envs))
-    params = {"normalizer": state.normalizer, "policy": state.params.policy}
 
     def one(carry, _):
       env_state, alive, totals = carry
       action = policy(params, env_state.obs, z if objective.conditions_policy else None)
       next_state = jax.vmap(eval_env.step)(env_state, action)
       transition = Transition(env_state.obs, action, next_state.obs, next_state.reward, z)
-      reward = jax.vmap(objective.reward, (None, 0))(state.params.objective, transition)
+      reward = jax.vmap(objective.reward, (None, 0))(params.objective, transition)
       step = {"eval/episode_reward": reward, "eval/episode_env_reward": next_state.reward,
               "eval/episode_length": jnp.ones_like(reward) * c.action_repeat,
               **{f"eval/episode_{k}": v for k, v in next_state.metrics.items()}}
@@ -335,12 +363,18 @@ def make_trainer(env: Any, objective: Objective, config: PPOConfig) -> Trainer:
     def one_chunk(state, key):
       state, metrics = chunk(state)
       metrics = jax.tree.map(lambda x: x.mean(0) if x.dtype != bool else x.any(0), metrics)
-      return state, {**metrics, **evaluate(state, key)}
+      return state, {**metrics, **evaluate(policy_params(state), key)}
 
     return jax.lax.scan(one_chunk, state, jax.random.split(eval_key, num_chunks))
 
   return Trainer(init=init, chunk=chunk, collect=collect, update=update, evaluate=evaluate, train=train, policy=policy,
                  num_chunks=num_chunks, iterations_per_chunk=iterations_per_chunk, config=c)
+
+
+def policy_params(state: TrainState) -> PolicyParams:
+  """The parameters a trained policy acts and is evaluated with."""
+  return PolicyParams(normalizer=state.normalizer, policy=state.params.policy,
+                      objective=state.params.objective)
 
 
 def make_train(env: Any, objective: Objective, config: PPOConfig) -> Callable:

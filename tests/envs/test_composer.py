@@ -34,16 +34,20 @@ APPENDIX_DESC = dict(
 def test_appendix_ant_push_example():
   env = envs.create(desc=APPENDIX_DESC)
   assert env.action_size == 12  # 6 legs x (hip, knee)
-  # pro_ant root_z_joints: 1 + 4 + 12 + 3 + 3 + 12 = 35; singleton qp: 3 + 4 + 3 + 3; root_vec: 3
-  assert env.observation_size == 35 + 13 + 3
+  # pro_ant root_z_joints: 1 + 4 + 12 + 3 + 3 + 12 = 35, and its contact dv, dw of 13 bodies (torso
+  # and 12 leg links): 78; singleton qp: 3 + 4 + 3 + 3; root_vec: 3
+  assert env.observation_size == 35 + 78 + 13 + 3
   assert list(env.obs_layout)[-1] == "agent1__cap1/root_vec_pos"
   assert env.reward_terms == ("cap1/goal", "agent1__cap1/dist")
   assert env.obs_indices("vel_xy") == (17, 18)  # 1 + 4 + 12 joint angles
 
   state = jax.jit(env.reset)(jax.random.PRNGKey(0))
-  # Torso starts at (0, 0, 0.75), the ball at (1, 0, 0.5): root_vec = (-1, 0, 0.25).
+  # Brax's rest pose: ankles at 50 deg, feet on the floor (blx: 1 mm above it), so the torso starts
+  # at 0.4 sqrt(2) sin 50 + 0.08 + 0.001 = 0.5143 m; the ball, also 1 mm up, at (1, 0, 0.501):
+  # root_vec = (-1, 0, 0.0133).
   np.testing.assert_allclose(state.obs[env.obs_layout["agent1__cap1/root_vec_pos"]],
-                             [-1.0, 0.0, 0.25], atol=1e-6)
+                             [-1.0, 0.0, 0.4 * np.sqrt(2) * np.sin(np.radians(50)) + 0.08 - 0.5],
+                             atol=1e-5)
   state = jax.jit(env.step)(state, jnp.zeros(env.action_size))
   m = state.metrics
   # goal = -||v_ball - (4, 0, 0)||, dist = -||p_torso - p_ball|| (the legs touch the ball at the
@@ -52,7 +56,7 @@ def test_appendix_ant_push_example():
   rel = np.asarray(state.obs[env.obs_layout["agent1__cap1/root_vec_pos"]], np.float64)
   assert float(m["reward/cap1/goal"]) == pytest.approx(-np.linalg.norm(v_ball - [4, 0, 0]), rel=1e-5)
   assert float(m["reward/agent1__cap1/dist"]) == pytest.approx(-np.linalg.norm(rel), rel=1e-5)
-  assert np.linalg.norm(rel) == pytest.approx(np.sqrt(1 + 0.25**2), abs=0.1)
+  assert np.linalg.norm(rel) == pytest.approx(1.0, abs=0.1)
   assert float(state.reward) == pytest.approx(
       float(m["reward/cap1/goal"] + m["reward/agent1__cap1/dist"]), rel=1e-6)
 
@@ -165,7 +169,7 @@ def test_wrappers_truncate_repeat_and_auto_reset():
   assert float(s1.done) == 0.0 and float(s1.info["steps"]) == 2  # counts unrepeated steps
   s2 = step(s1, action)
   # 4 base steps: time is up; truncation (not termination) and the obs returns to the reset obs.
-  assert float(s2.done) == 1.0 and float(s2.info["truncation"]) == 1.0
+  assert float(s2.done) == 1.0 and float(s2.truncation) == 1.0
   np.testing.assert_allclose(s2.obs, first_obs)
   s3 = step(s2, action)
   assert float(s3.done) == 0.0 and float(s3.info["steps"]) == 2
@@ -175,7 +179,7 @@ def test_edits_and_env_params():
   env = envs.create("ant_push", edits={"components.cap1.reward_fns.goal.scale": 0.5})
   assert env.desc["components"]["cap1"]["reward_fns"]["goal"]["scale"] == 0.5
   six = envs.create("pro_ant_run", num_legs=6)
-  assert six.action_size == 12 and six.observation_size == 1 + 4 + 12 + 3 + 3 + 12
+  assert six.action_size == 12 and six.observation_size == 1 + 4 + 12 + 3 + 3 + 12 + 6 * 13
   assert envs.create("ant").xml != six.xml
 
 

@@ -9,16 +9,18 @@ import pytest
 
 from blx import envs
 from tests.conftest import make_env, rollout_fn
+from tests.envs.mujoco_reference import ctrl_with_cut
 
 ENV_NAMES = envs.list_envs()
 
 
 def test_registry_lists_the_required_envs():
   required = {"point", "ant", "humanoid", "halfcheetah", "ant_run", "ant_push", "ant_chase",
-              "pro_ant_run", "humanoid_run", "halfcheetah_run"}
+              "pro_ant_run", "humanoid_run", "halfcheetah_run", "gym_ant", "gym_humanoid",
+              "gym_halfcheetah"}
   assert required <= set(ENV_NAMES)
-  assert {"ant", "pro_ant", "humanoid", "halfcheetah", "singleton", "point", "ground"} <= set(
-      envs.list_components())
+  assert {"ant", "pro_ant", "humanoid", "halfcheetah", "gym_ant", "gym_humanoid",
+          "gym_halfcheetah", "singleton", "point", "ground"} <= set(envs.list_components())
 
 
 @pytest.mark.parametrize("name", ENV_NAMES)
@@ -45,13 +47,15 @@ def test_jit_vmap_rollout_is_finite_and_matches_mujoco(name):
   assert np.isfinite(obs).all(), f"{name}: non-finite observation in 1000 random steps"
   assert np.isfinite(reward).all() and np.isfinite(qpos).all()
 
-  # Plain MuJoCo (float64, C) stepped with the same actions agrees over the first steps.
+  # Plain MuJoCo (float64, C) stepped with the same actions from the same reset pose, with the same
+  # torque cut past the joint limits, agrees over the first steps.
   model = env.mj_model
   data = mujoco.MjData(model)
+  data.qpos[:] = env.unwrapped.init_qpos
   mujoco.mj_forward(model, data)
   for t in range(3):
-    data.ctrl[:] = actions[t, 0]
     for _ in range(env.substeps):
+      data.ctrl[:] = ctrl_with_cut(env.unwrapped, actions[t, 0], data.qpos)
       mujoco.mj_step(model, data)
     np.testing.assert_allclose(qpos[t, 0], data.qpos, atol=2e-3, rtol=1e-3,
                                err_msg=f"{name}: MJX and MuJoCo disagree at step {t}")

@@ -59,7 +59,7 @@ def test_load_run_rebuilds_env_objective_and_params(trained):
   run = blx.load_run(trained)
   assert run.objective.name == "diayn" and run.objective.latent_size == 3
   assert run.env.observation_size == 4
-  leaves = [np.asarray(x) for x in __import__("jax").tree.leaves(run.params["policy"])]
+  leaves = [np.asarray(x) for x in __import__("jax").tree.leaves(run.params.policy)]
   assert all(x.shape[0] == 2 for x in leaves)  # the seed axis
 
 

@@ -3,34 +3,45 @@
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import jax
 import jax.numpy as jnp
 import numpy as np
+import pytest
 
-from blx import metrics, objectives
+from blx import metrics, objectives, training
 from tests.conftest import make_env
+
+
+class Hand(NamedTuple):
+  """Parameters of the hand-written policies below; ``objective`` is what evaluators read (gcrl and
+  gail learn nothing here: no objective parameters)."""
+
+  gain: float
+  noise: float = 0.0
+  objective: dict = {}
 
 
 def go_to(params, obs, z, key=None, deterministic=False):
   """A PD controller that drives the point to position z (it settles within about 40 steps); it
   ignores the evaluation's sampling key."""
-  return jnp.clip(params["gain"] * (z - obs[:, :2]) - 0.5 * obs[:, 2:], -1.0, 1.0)
+  return jnp.clip(params.gain * (z - obs[:, :2]) - 0.5 * obs[:, 2:], -1.0, 1.0)
 
 
 def noisy_go_to(params, obs, z, key=None, deterministic=False):
-  """go_to with uniform action noise of amplitude params["noise"] unless deterministic."""
+  """go_to with uniform action noise of amplitude params.noise unless deterministic."""
   action = go_to(params, obs, z)
   if deterministic:
     return action
-  return jnp.clip(action + params["noise"] * jax.random.uniform(key, action.shape, minval=-1.0),
+  return jnp.clip(action + params.noise * jax.random.uniform(key, action.shape, minval=-1.0),
                   -1.0, 1.0)
 
 
 def test_mimax_helper_on_skills_that_reach_their_goals():
   env = make_env("point")
   obj = objectives.gcrl(obs_indices="pos_xy", env=env, obs_scale=5.0)
-  out = metrics.evaluate_mimax(env, obj, {"gain": 2.0, "objective": {}}, jax.random.PRNGKey(0),
+  out = metrics.evaluate_mimax(env, obj, Hand(gain=2.0), jax.random.PRNGKey(0),
                                policy=go_to, num_latents=10, episodes_per_latent=2,
                                episode_length=100, last_steps=20, bins=1001)
   # 10 skills (z ~ U(-2.5, 2.5)^2), each settled at its own z: per dimension every skill fills
@@ -42,7 +53,7 @@ def test_mimax_helper_on_skills_that_reach_their_goals():
   assert out["eval/lgr"] < 1e-3
   # With a controller too weak to arrive (gain 0: the point never moves from the origin) the LGR
   # is the mean RMS distance of the 10 goals ~ U(-5, 5)^2 from the origin, and MI is 0.
-  still = metrics.evaluate_mimax(env, obj, {"gain": 0.0, "objective": {}}, jax.random.PRNGKey(0),
+  still = metrics.evaluate_mimax(env, obj, Hand(gain=0.0), jax.random.PRNGKey(0),
                                  policy=go_to, num_latents=10, episodes_per_latent=2,
                                  episode_length=100, last_steps=20, bins=1001)
   goals = jax.random.uniform(jax.random.PRNGKey(0), (10, 2), minval=-5.0, maxval=5.0)
@@ -54,13 +65,13 @@ def test_mimax_helper_on_skills_that_reach_their_goals():
 def test_dmin_helper_matches_a_direct_energy_distance():
   env = make_env("point")
   obj = objectives.gail(obs_indices="pos_xy", env=env, obs_scale=8.0)  # modes (+-4, 0)
-  params = {"gain": 2.0, "objective": {}}
+  params = Hand(gain=2.0)
   policy = lambda params, obs, z, **_: go_to(params, obs, jnp.array([4.0, 0.0]))
   out = metrics.evaluate_dmin(env, obj, params, jax.random.PRNGKey(0), policy=policy,
                               num_episodes=2, episode_length=100, last_steps=20, every=1)
   # Settled at (4, 0): X is 40 copies of (4, 0), so E||X - X'|| = 0 and
   # ED = 2 mean_j ||(4, 0) - y_j|| - mean_jk ||y_j - y_k||.
-  y = np.asarray(obj.info["target"].samples, np.float64)
+  y = np.asarray(obj.spec.target.samples, np.float64)
   expected = (2 * np.linalg.norm(y - [4.0, 0.0], axis=-1).mean()
               - np.linalg.norm(y[:, None] - y[None], axis=-1).mean())
   np.testing.assert_allclose(out["eval/energy_distance"], expected, rtol=1e-3)
@@ -73,7 +84,7 @@ def test_evaluation_samples_actions_unless_deterministic():
   # keeps the settled point moving.
   env = make_env("point")
   obj = objectives.gcrl(obs_indices="pos_xy", env=env, obs_scale=5.0)
-  params = {"gain": 2.0, "noise": 1.0, "objective": {}}
+  params = Hand(gain=2.0, noise=1.0)
   settings = dict(policy=noisy_go_to, num_latents=10, episodes_per_latent=2, episode_length=100,
                   last_steps=20, bins=1001)
   sampled = metrics.evaluate_mimax(env, obj, params, jax.random.PRNGKey(0), **settings)
@@ -109,3 +120,31 @@ def test_rollout_goes_on_after_termination_as_braxlines():
                            jnp.zeros((1, 0)), jax.random.PRNGKey(0), episodes_per_latent=2,
                            episode_length=6, conditions_policy=False)
   np.testing.assert_array_equal(states[0, :, :, 0], [[1, 2, 3, 4, 5, 6]] * 2)
+
+
+def test_a_new_family_plugs_in_through_one_registration(monkeypatch):
+  # A toy objective family: its own spec type, one registration, and runs find its evaluator and
+  # table columns without any change in training, runs, sweeps, plots or the CLI.
+  from typing import NamedTuple
+
+  from blx.experiments import runs
+  from blx.metrics import families
+
+  class ToySpec(NamedTuple):
+    scale: float
+
+  toy = objectives.task()._replace(name="toy", spec=ToySpec(2.0))
+  with pytest.raises(ValueError, match="no evaluation is registered for its spec type ToySpec"):
+    metrics.family_of(toy)
+  evaluator = lambda policy, params, key: {"eval/toy": jnp.asarray(2.0)}
+  family = metrics.Family(name="toy", table=(("toy", "eval/toy", 1.0),),
+                          make_evaluator=lambda env, objective, **settings: evaluator)
+  monkeypatch.setattr(families, "_FAMILIES", dict(families._FAMILIES))
+  metrics.register_family(ToySpec, family)
+  assert metrics.family_of(toy) is family
+  env = make_env("point")
+  assert runs.evaluator_for(env, toy, training.ppo_defaults("point")) is evaluator
+  with pytest.raises(ValueError, match="already registered"):
+    metrics.register_family(ToySpec, family)
+  with pytest.raises(ValueError, match="plot='bars' is not valid"):
+    metrics.register_family(str, family._replace(plot="bars"))

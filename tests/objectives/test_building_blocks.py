@@ -159,7 +159,8 @@ def test_spectral_normalize_matches_svd():
 def test_spectral_norm_state_persists_through_post_update():
   # A spectrally normalised discriminator: after repeated post_updates every layer's kernel
   # divided by its true top singular value equals what the network uses.
-  obj = O.diayn(num_skills=4, obs_indices=(0, 1), spectral_norm=True)
+  obj = O.diayn(num_skills=4, obs_indices=(0, 1), spectral_norm=True,
+                spectral_iteration="persistent")
   params = obj.init(jax.random.PRNGKey(0), 4)
   batch = O.Transition(jnp.zeros((8, 4)), jnp.zeros((8, 2)), jnp.ones((8, 4)), jnp.zeros(8),
                        jnp.tile(jnp.eye(4), (2, 1)))
@@ -171,6 +172,34 @@ def test_spectral_norm_state_persists_through_post_update():
     _, _, sigma = O.spectral_normalize(layer["kernel"], u, num_iterations=1)
     top = np.linalg.svd(np.asarray(layer["kernel"]), compute_uv=False)[0]
     np.testing.assert_allclose(sigma, top, rtol=1e-3, err_msg=name)
+
+
+def test_spectral_norm_fixed_start_is_the_original_one_step_estimate():
+  # Braxlines' default: one power iteration per call from the vector drawn at init, never advanced.
+  obj = O.diayn(num_skills=4, obs_indices=(0, 1), spectral_norm=True)
+  assert obj.post_update is None  # nothing to carry between SGD steps
+  params = obj.init(jax.random.PRNGKey(0), 4)
+  x = jnp.array([0.3, -1.2])
+  # Rebuild the forward pass by hand: each layer uses W / sigma, sigma one step from the stored u.
+  h = x
+  layers = sorted(params["disc"]["params"])
+  sigmas, tops = [], []
+  for i, name in enumerate(layers):
+    layer, u = params["disc"]["params"][name], params["disc"]["spectral"][name]["u"]
+    w_sn, _, sigma = O.spectral_normalize(layer["kernel"], u, num_iterations=1)
+    sigmas.append(float(sigma))
+    tops.append(float(np.linalg.svd(np.asarray(layer["kernel"]), compute_uv=False)[0]))
+    h = h @ w_sn + layer["bias"]
+    if i < len(layers) - 1:
+      h = jax.nn.swish(h)
+  logits = obj.spec.posterior_out(params, jnp.concatenate([x, jnp.zeros(2)]))
+  np.testing.assert_allclose(logits, h, rtol=1e-5, atol=1e-6)
+  # A one-step estimate never exceeds the top singular value, and from a random start it falls
+  # short of it: the original's constraint is looser than the exact norm.
+  assert all(s <= t * (1 + 1e-5) for s, t in zip(sigmas, tops))
+  assert any(s < 0.999 * t for s, t in zip(sigmas, tops))
+  with pytest.raises(ValueError, match="spectral_iteration='exact'.*valid values"):
+    O.diayn(num_skills=4, obs_indices=(0, 1), spectral_norm=True, spectral_iteration="exact")
 
 
 def test_multimode_gaussian_layouts():
@@ -200,3 +229,27 @@ def test_target_from_samples_and_its_errors():
     O.target_from_samples([[0.0, np.nan], [1.0, 2.0]])
   with pytest.raises(ValueError, match="no density"):
     O.mle(target=t, obs_indices=(0,))
+
+
+@pytest.mark.parametrize("clip_loss_logits", [True, False])
+def test_dmin_loss_clips_logits_like_the_original_unless_asked(clip_loss_logits):
+  # A GAIL discriminator made extreme (last layer x 1000) so most logits lie far outside +-c = 5.
+  target = O.target_from_samples(np.linspace(-1.0, 1.0, 8)[:, None])
+  make = lambda clip: O.gail(target=target, obs_indices=(0,), balance_data=False, logits_clip=clip,
+                             clip_loss_logits=clip_loss_logits)
+  gail, unclipped = make(5.0), make(1e9)
+  params = gail.init(jax.random.PRNGKey(1), 2)
+  last = sorted(params["disc"]["params"])[-1]
+  params["disc"]["params"][last] = jax.tree.map(lambda w: 1000.0 * w,
+                                                params["disc"]["params"][last])
+  obs = jnp.stack([jnp.linspace(-3.0, 3.0, 16), jnp.zeros(16)], -1)
+  batch = O.Transition(obs, jnp.zeros((16, 1)), obs, jnp.zeros(16), jnp.zeros((16, 0)))
+  value, _ = gail.loss(params, batch, jax.random.PRNGKey(0))
+  raw_pol = jax.vmap(unclipped.spec.logit, (None, 0))(params, obs[:, :1])
+  raw_tgt = jax.vmap(unclipped.spec.logit, (None, 0))(params, jnp.asarray(target.samples))
+  assert float(jnp.max(jnp.abs(raw_pol))) > 50.0  # the clip matters for this discriminator
+  l_pol, l_tgt = (jnp.clip(raw_pol, -5, 5), jnp.clip(raw_tgt, -5, 5)) if clip_loss_logits else (
+      raw_pol, raw_tgt)
+  # Binary cross-entropy, policy labelled 0 and target 1: mean softplus(l_pol) + mean softplus(-l_tgt).
+  expected = jnp.mean(jax.nn.softplus(l_pol)) + jnp.mean(jax.nn.softplus(-l_tgt))
+  np.testing.assert_allclose(value, expected, rtol=1e-5)

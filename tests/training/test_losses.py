@@ -5,6 +5,7 @@ import numpy as np
 import pytest
 
 from blx.training import clipped_surrogate, gae
+from blx.training.losses import sequence_advantages
 from blx.training.networks import init_stats, normalize, update_stats
 
 
@@ -33,6 +34,23 @@ def test_gae_unknown_bootstrap_teaches_nothing_at_that_step():
                     discount=0.9, lam=0.5, known_t=jnp.array([1.0, 0.0, 1.0]))
   np.testing.assert_allclose(adv, [1.4, 0.0, 1.5], rtol=1e-6)
   np.testing.assert_allclose(target, [1.9, 1.0, 3.0], rtol=1e-6)
+
+
+def test_sequence_advantages_bootstrap_at_truncations():
+  # Two sequences of T = 3 from auto-reset envs, discount 0.9, lambda 0.5; values[:, 3] = V(s'_2).
+  r = jnp.array([[1.0, 2.0, 3.0], [1.0, 2.0, 3.0]])
+  values = jnp.array([[0.5, 1.0, 1.5, 7.0], [0.5, 1.0, 1.5, 7.0]])
+  # Sequence 0: truncated at t = 1 (inside: s_2 is the reset state, V(s'_1) unknown) and at t = 2
+  # (last: bootstrap from V(s'_2) = 7). Sequence 1: terminated at t = 2 (no bootstrap).
+  done = jnp.array([[0.0, 1.0, 1.0], [0.0, 0.0, 1.0]])
+  truncation = jnp.array([[0.0, 1.0, 1.0], [0.0, 0.0, 0.0]])
+  adv, target = sequence_advantages(r, values, done, truncation, discount=0.9, lam=0.5)
+  # Seq 0: delta_2 = 3 + 0.9 * 7 - 1.5 = 7.8; delta_1 = 0 (unknown); delta_0 = 1 + 0.9 - 0.5 = 1.4
+  #        A = [1.4 + 0.45 * 0, 0, 7.8]
+  # Seq 1: delta_2 = 3 - 1.5 = 1.5; delta_1 = 2 + 0.9 * 1.5 - 1 = 2.35; delta_0 = 1.4
+  #        A_1 = 2.35 + 0.45 * 1.5 = 3.025; A_0 = 1.4 + 0.45 * 3.025 = 2.76125
+  np.testing.assert_allclose(adv, [[1.4, 0.0, 7.8], [2.76125, 3.025, 1.5]], rtol=1e-6)
+  np.testing.assert_allclose(target, adv + values[:, :3], rtol=1e-6)
 
 
 def test_clipped_surrogate_hand_computed():

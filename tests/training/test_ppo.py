@@ -30,8 +30,8 @@ def test_ppo_learns_to_reach_a_goal():
   config = training.ppo_defaults("point", num_timesteps=80_000)
   result = training.train(point_goal(), task(), config, seeds=(0,), progress=False)
   trainer = training.make_trainer(point_goal(), task(), config)
-  untrained = jax.jit(trainer.evaluate)(jax.jit(trainer.init)(jax.random.PRNGKey(0)),
-                                        jax.random.PRNGKey(1))
+  untrained = jax.jit(trainer.evaluate)(
+      training.policy_params(jax.jit(trainer.init)(jax.random.PRNGKey(0))), jax.random.PRNGKey(1))
   # The untrained policy stays near the origin, 3 m from the goal for 50 steps: reward about -150.
   # A trained one gets there in about 15 steps at its top speed of 2 m/s: about -35 to -50.
   before = float(untrained["eval/episode_reward"])
@@ -88,7 +88,7 @@ def test_objective_hook_replaces_the_reward_and_trains_its_params():
   assert final["eval/episode_reward"][0] > -70, final["eval/episode_reward"]
   assert final["eval/episode_reward"][0] > first["eval/episode_reward"][0]
   # The objective's loss (w - 1)^2 was minimised by the same Adam: w moved from 0 toward 1.
-  w = float(result.params["objective"]["w"][0])
+  w = float(result.params.objective["w"][0])
   assert 0.5 < w < 1.5
   assert "loss/tiny" in final and "tiny/mean_obs" in final
 

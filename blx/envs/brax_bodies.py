@@ -1,0 +1,322 @@
+"""The paper's bodies: Brax v1's ant, procedural ant, half-cheetah and humanoid, rebuilt in MJCF.
+
+The Braxlines paper trained on Brax v1 (tag v0.0.6), not on the MuJoCo/Gym models. Those bodies are
+heavier, more damped and collide on fewer geoms, and that is what the paper's skills and tables were
+learned on. The numbers here are Brax v0.0.6's (``shared/reference/brax-v1-bodies.md`` lists each with
+its meaning); the MJCF is written for this library.
+
+What carries over exactly: masses, isotropic inertias (``<inertial>``; a Brax body's position is its
+centre of mass), link lengths, joint axes and ranges, motor strengths (MJCF ``gear``), joint angular
+damping (MJCF ``damping``), the collide lists (only those geoms get contact pairs), friction, gravity,
+the control step (0.05 s for ant and cheetah, 0.015 s for the humanoid), the default pose (range
+midpoints unless Brax sets an angle, lifted so the lowest collider touches the floor), the motor
+torque cut while a joint is past its range, and the termination heights.
+
+What MJX cannot copy, and what blx does instead:
+
+* **Soft joints.** Brax v1 joints are springs (stiffness 5000-15000) that let the anchors stretch and
+  the hinge axes tilt. MJCF joints are rigid. The rigid ant rests about 2 cm higher (0.362 m against
+  Brax's 0.342 m) and has no fast 3 cm drop in its first 0.15 s.
+* **Soft joint limits.** Brax pushes back with ``limit_strength`` N m/rad, lightly damped (the ant's
+  damping ratio is about 0.35). blx uses MuJoCo's limit constraint with the same natural frequency
+  (``solreflimit`` time constant 10 ms; MuJoCo raises it to two timesteps where needed) but
+  critically damped: at a ratio of 0.35 the MJX physics blew up under bang-bang torques (11 of 48
+  C MuJoCo episodes of random +-1 actions, and NaN observations within 3-30 M steps of GAIL, DIAYN
+  and AIRL training on the GPU).
+* **Impulse contacts.** Brax resolves contacts with velocity impulses, Baumgarte push-out and no
+  friction below 1 cm/s of sliding; MJX uses MuJoCo's soft constraints (pyramidal cone, condim 3).
+* **The contact observation.** Brax reports each body's contact velocity change Δv and Δω summed over
+  the substeps (``info.contact``). blx reports the same quantity computed from MJX's contact forces:
+  Δv_b = Σ_substeps F_b h / m_b and Δω_b = Σ_substeps τ_b h / I_b (torque about the body's centre of
+  mass), clipped to ±1 for the ant as in Brax. Brax's impulses act on one body at a time, MuJoCo's
+  forces on the whole articulated body, so magnitudes differ; the signs and which body touches do not.
+  The forces are those MuJoCo's solver reports; with the one Newton iteration blx runs, they can
+  differ from the momentum the contacts actually transferred in a violent step.
+  Brax's 87-dim ant observation also has 6 always-zero entries for the frozen ground; blx omits them
+  (81 dims), so every index the paper uses (13, 14) is where the paper has it.
+* **The v0.0.6 rotation bug** (orientations integrated at twice the angular velocity) is not copied.
+* **Integration.** One env step is ``substeps`` MuJoCo steps of semi-implicit Euler. The registered
+  ``ant`` uses 5 steps of 10 ms for the 0.05 s control step, against Brax's 10 impulse substeps of
+  5 ms; ``edits={"global_options": dict(timestep=0.005, substeps=10)}`` gives Brax's count. The
+  two agree on the fact sheet's signatures (random actions: no early ends in 128 episodes, torso z
+  mean 0.504 against 0.516, xy velocity std 0.44 against 0.45; Brax: 1.6 % (0.8 % with its rotation
+  bug fixed), 0.511 (0.475), 0.56 (0.46)), and 10 ms steps cost half the physics.
+  ``tests/envs/test_brax_bodies.py`` checks the registered setting against the fact sheet.
+* **Joint velocity sign.** Brax observes (ω_parent - ω_child)·axis, minus the angle's rate; blx
+  observes the angle's rate (MuJoCo's ``qvel``).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from blx.envs.spec import MAX_LEGS, MIN_LEGS, ComponentSpec, Termination
+from blx.envs.mjcf import Element
+
+__all__ = ["ant", "pro_ant", "halfcheetah", "humanoid", "ANT_DAMPING", "ANT_STRENGTH"]
+
+ANT_DAMPING = 35.0        # Brax joint angular_damping, N m s/rad
+ANT_STRENGTH = 300.0      # Brax motor strength (v0.0.6 stock ant)
+PRO_ANT_STRENGTH = 350.0  # Braxlines' procedural ant
+ANT_LIMIT = (0.01, 1.0)   # solreflimit: 100 rad/s (Brax's limit_strength 5000 on inertia-1 links), damped
+_UNIT = dict(diaginertia=(1.0, 1.0, 1.0))
+
+
+def _inertial(body: Element, mass: float, inertia: float | None = None, pos=(0, 0, 0)) -> None:
+  diag = _UNIT["diaginertia"] if inertia is None else (inertia,) * 3
+  body.add("inertial", pos=pos, mass=mass, diaginertia=diag)
+
+
+def _brax_ant(num_legs: int, first_angle: float, strength: float, brax_axes: bool) -> ComponentSpec:
+  """A Brax v1 ant: a 10 kg torso sphere (r 0.25) and ``num_legs`` legs of two 1 kg links.
+
+  Leg ``i`` points along ``theta_i = first_angle + 2 pi (i - 1) / N``. Its hip sits 0.2 sqrt(2) m out
+  from the torso centre on a vertical hinge (+-30 deg); its thigh (COM at the segment's middle) ends
+  at the ankle, a hinge across the leg (30..70 deg, positive = foot down); the shin's COM is 0.2
+  sqrt(2) m past the ankle and its foot sphere (r 0.08, the only collider of the leg) 0.4 sqrt(2) m
+  past it. Every inertia is 1 I_3, every joint damped with 35 N m s/rad, every motor of ``strength``.
+
+  ``brax_axes``: the stock ant's ankle axes and ranges (legs 2 and 3 have the axis flipped and the
+  range negated, so their angles read with the opposite sign), rather than one rule for every leg.
+  """
+  seg = 0.2 * math.sqrt(2)
+  torso = Element("body", {"name": "torso", "pos": (0, 0, 0.5)})
+  torso.add("freejoint", name="root")
+  _inertial(torso, 10.0)
+  torso.add("geom", name="torso_geom", type="sphere", size=0.25, mass=0)
+  motors, feet, default, bodies = [], [], {}, ["torso"]
+  limits = dict(limited="true", solreflimit=ANT_LIMIT, damping=ANT_DAMPING, armature=0)
+  for i in range(1, num_legs + 1):
+    theta = first_angle + 2 * math.pi * (i - 1) / num_legs
+    u = np.array([math.cos(theta), math.sin(theta), 0.0])
+    thigh = torso.add("body", name=f"thigh_{i}", pos=tuple(seg * u))
+    thigh.add("joint", name=f"hip_{i}", type="hinge", axis=(0, 0, 1),
+              range=(-math.radians(30), math.radians(30)), **limits)
+    _inertial(thigh, 1.0, pos=tuple(0.5 * seg * u))
+    thigh.add("geom", name=f"thigh_{i}_geom", type="capsule", fromto=(0, 0, 0, *(seg * u)),
+              size=0.08, mass=0)
+    shin = thigh.add("body", name=f"shin_{i}", pos=tuple(seg * u))
+    axis = np.array([-math.sin(theta), math.cos(theta), 0.0])
+    lo, hi = 30.0, 70.0
+    if brax_axes and i in (2, 3):  # the stock ant flips these two axes and negates their ranges
+      axis, lo, hi = -axis, -70.0, -30.0
+    shin.add("joint", name=f"ankle_{i}", type="hinge", axis=tuple(np.round(axis, 12)),
+             range=(math.radians(lo), math.radians(hi)), **limits)
+    _inertial(shin, 1.0, pos=tuple(seg * u))
+    shin.add("geom", name=f"shin_{i}_geom", type="capsule", fromto=(0, 0, 0, *(2 * seg * u)),
+             size=0.08, mass=0)
+    shin.add("geom", name=f"foot_{i}_geom", type="sphere", pos=tuple(2 * seg * u), size=0.08,
+             mass=0)
+    motors += [(f"hip_{i}", strength), (f"ankle_{i}", strength)]
+    feet.append(f"foot_{i}_geom")
+    default[f"ankle_{i}"] = math.radians(0.5 * (lo + hi))
+    bodies += [f"thigh_{i}", f"shin_{i}"]
+  return ComponentSpec(
+      bodies=(torso,),
+      motors=tuple(motors),
+      root="torso",
+      root_linear={-1: "root"},
+      colliders=("torso_geom", *feet),
+      root_colliders=("torso_geom",),
+      observers=("root_z_joints", "cfrc"),
+      termination=Termination(min_z=0.2, max_z=1.0, check_flip=False),
+      default_qpos=default,
+      rest_on_ground=True,
+      torque_cut=True,
+      contact_bodies=tuple(bodies),
+      contact_clip=1.0,
+  )
+
+
+def ant() -> ComponentSpec:
+  """Brax v1's stock ant (the paper's): 18 kg, strength 300, damping 35, legs at 45 + 90 k deg.
+
+  Observation (81): torso z, quaternion, 8 joint angles, torso velocity (world), angular velocity
+  (world), 8 joint velocities, then contact Δv (9 bodies x 3) and Δω (9 x 3), clipped to +-1. Episodes
+  end when the torso leaves z in [0.2, 1.0]; there is no upside-down rule (Brax v0.0.6).
+  """
+  return _brax_ant(4, math.pi / 4, ANT_STRENGTH, brax_axes=True)
+
+
+def pro_ant(num_legs: int = 4) -> ComponentSpec:
+  """Braxlines' procedural ant: the Brax ant's legs, ``num_legs`` (2..16) of them from +x, strength
+  350."""
+  if not isinstance(num_legs, int) or isinstance(num_legs, bool) or not (
+      MIN_LEGS <= num_legs <= MAX_LEGS):
+    raise ValueError(
+        f"pro_ant: num_legs={num_legs!r} is out of range; valid values are {MIN_LEGS}..{MAX_LEGS}")
+  return _brax_ant(num_legs, 0.0, PRO_ANT_STRENGTH, brax_axes=False)
+
+
+# --------------------------------------------------------------------------------------------------
+# Half-cheetah: MuJoCo's geometry at density 1000 without settotalmass (21.18 kg), every link's COM at
+# its joint, isotropic inertias, no joint damping, springs or armature.
+
+_CHEETAH = (  # name, parent, joint pos, range (deg), mass, inertia, geom pos, y angle (rad), half-length
+    ("bthigh", "torso", (-0.5, 0, 0), (-29.79, 60.16), 2.3355, 0.029636, (0.1, 0, -0.13), -3.8, 0.145),
+    ("bshin", "bthigh", (0.16, 0, -0.25), (-44.98, 44.98), 2.4020, 0.032029, (-0.14, 0, -0.07),
+     -2.03, 0.15),
+    ("bfoot", "bshin", (-0.28, 0, -0.14), (-22.92, 44.98), 1.6575, 0.011706, (0.03, 0, -0.097),
+     -0.27, 0.094),
+    ("fthigh", "torso", (0.5, 0, 0), (-57.30, 40.11), 2.1760, 0.024391, (-0.07, 0, -0.12), 0.52,
+     0.133),
+    ("fshin", "fthigh", (-0.14, 0, -0.24), (-68.75, 49.85), 1.8170, 0.014955, (0.065, 0, -0.09),
+     -0.6, 0.106),
+    ("ffoot", "fshin", (0.13, 0, -0.18), (-28.65, 28.65), 1.3384, 0.0067111, (0.045, 0, -0.07),
+     -0.6, 0.07),
+)
+_CHEETAH_GEAR = dict(bthigh=120.0, bshin=90.0, bfoot=60.0, fthigh=120.0, fshin=60.0, ffoot=30.0)
+# Four Newton iterations, not the one the other bodies use: light links (down to 1.3 kg, inertia
+# 0.0067) on a 9.5 kg torso make the constraint problem badly conditioned, and one iteration leaves
+# float32 MJX and float64 MuJoCo 0.9 m apart after three random steps; four agree to 4e-5.
+CHEETAH_OPTIONS = dict(timestep=0.003125, substeps=16, iterations=4)
+
+
+def halfcheetah() -> ComponentSpec:
+  """Brax v1's half-cheetah: planar (x, z slides, y hinge), 21.18 kg, no joint damping.
+
+  Colliders: torso and head, thighs and feet (not the shins), friction 0.4. No termination. The
+  default pose puts every joint at its range midpoint. Observation (23): torso z, quaternion, 6
+  angles, torso velocity (y = 0), angular velocity, 6 joint velocities; vx is index 11.
+  """
+  radius = 0.046
+  torso = Element("body", {"name": "torso", "pos": (0, 0, 0.6)})
+  for name, axis, kind in (("rootx", (1, 0, 0), "slide"), ("rootz", (0, 0, 1), "slide"),
+                           ("rooty", (0, 1, 0), "hinge")):
+    torso.add("joint", name=name, type=kind, axis=axis, armature=0, damping=0, stiffness=0,
+              limited="false")
+  _inertial(torso, 9.4573, 0.94480)
+  torso.add("geom", name="torso", type="capsule", fromto=(-0.5, 0, 0, 0.5, 0, 0), size=radius,
+            mass=0)
+  torso.add("geom", name="head", type="capsule", pos=(0.6, 0, 0.1), axisangle=(0, 1, 0, 0.87),
+            size=(radius, 0.15), mass=0)
+  bodies = {"torso": torso}
+  default = {}
+  for name, parent, pos, (lo, hi), mass, inertia, gpos, angle, half in _CHEETAH:
+    body = bodies[parent].add("body", name=name, pos=pos)
+    body.add("joint", name=name, type="hinge", axis=(0, 1, 0),
+             range=(math.radians(lo), math.radians(hi)), damping=0, stiffness=0, armature=0,
+             limited="true", solreflimit=ANT_LIMIT)
+    _inertial(body, mass, inertia)
+    body.add("geom", name=name, type="capsule", pos=gpos, axisangle=(0, 1, 0, angle),
+             size=(radius, half), mass=0)
+    bodies[name] = body
+    default[name] = math.radians(0.5 * (lo + hi))
+  return ComponentSpec(
+      bodies=(torso,),
+      motors=tuple(_CHEETAH_GEAR.items()),
+      root="torso",
+      root_linear={0: "rootx", 2: "rootz"},
+      root_angular={1: "rooty"},
+      colliders=("torso", "head", "bthigh", "bfoot", "fthigh", "ffoot"),
+      root_colliders=("torso", "head"),
+      observers=("root_z_joints",),
+      termination=None,
+      planar_axes=(0,),
+      friction=0.4,
+      default_qpos=default,
+      rest_on_ground=True,
+      torque_cut=True,
+  )
+
+
+# --------------------------------------------------------------------------------------------------
+# Humanoid: MuJoCo's link geometry with Brax's masses, unit inertias (COM at the joint side, as Brax
+# body positions), strength 300 (legs, abdomen) / 75 (arms), angular damping 20, Brax's narrower hip
+# ranges, and contacts on the shins and feet only.
+
+HUMANOID_OPTIONS = dict(timestep=0.003, substeps=5)
+
+
+def humanoid() -> ComponentSpec:
+  """Brax v1's humanoid: 42.1 kg, 17 motors, every inertia 1 I_3, only shins and feet collide.
+
+  Episodes end when the torso leaves z in [0.65, 2.1]. The default pose has the knees at -25 deg and
+  every other joint at its range midpoint. Observation: torso z, quaternion, 17 joint angles, torso
+  velocity and angular velocity (world), 17 joint velocities (45); xy velocity at (22, 23) as in the
+  paper. Brax's further 254 entries (per-body inertia, velocities, actuator forces, contacts) are not
+  reproduced. Brax's 2- and 3-axis joints are chains of hinges here, with Brax's ranges read in
+  MuJoCo's sense: that reading reproduces Brax's default pose exactly (torso z 1.2439, centre of
+  mass (0.063, 0, 0.8836)). Brax's reset adds one physics step of random actions; blx's reset is the
+  deterministic default pose.
+  """
+  deg = math.radians
+  limits = dict(limited="true", damping=20.0, armature=0, solreflimit=ANT_LIMIT)
+  default: dict[str, float] = {}
+
+  def hinge(body, name, axis, lo, hi, pos=(0, 0, 0)):
+    body.add("joint", name=name, type="hinge", axis=axis, pos=pos, range=(deg(lo), deg(hi)),
+             **limits)
+    default[name] = deg(0.5 * (lo + hi))
+
+  torso = Element("body", {"name": "torso", "pos": (0, 0, 1.4)})
+  torso.add("freejoint", name="root")
+  _inertial(torso, 8.9075)
+  torso.add("geom", name="torso1", type="capsule", fromto=(0, -0.07, 0, 0, 0.07, 0), size=0.07,
+            mass=0)
+  torso.add("geom", name="head", type="sphere", pos=(0, 0, 0.19), size=0.09, mass=0)
+  torso.add("geom", name="uwaist", type="capsule", fromto=(-0.01, -0.06, -0.12, -0.01, 0.06, -0.12),
+            size=0.06, mass=0)
+  lwaist = torso.add("body", name="lwaist", pos=(-0.01, 0, -0.26))
+  _inertial(lwaist, 2.2619)
+  lwaist.add("geom", name="lwaist", type="capsule", fromto=(0, -0.06, 0, 0, 0.06, 0), size=0.06,
+             mass=0)
+  hinge(lwaist, "abdomen_z", (0, 0, 1), -45, 45, pos=(0, 0, 0.065))
+  hinge(lwaist, "abdomen_y", (0, 1, 0), -75, 30, pos=(0, 0, 0.065))
+  pelvis = lwaist.add("body", name="pelvis", pos=(0, 0, -0.165))
+  _inertial(pelvis, 6.6162)
+  hinge(pelvis, "abdomen_x", (1, 0, 0), -35, 35, pos=(0, 0, 0.1))
+  pelvis.add("geom", name="butt", type="capsule", fromto=(-0.02, -0.07, 0, -0.02, 0.07, 0),
+             size=0.09, mass=0)
+  colliders = []
+  for side, sy in (("right", -1.0), ("left", 1.0)):
+    thigh = pelvis.add("body", name=f"{side}_thigh", pos=(0, 0.1 * sy, -0.04))
+    _inertial(thigh, 4.7518)
+    hinge(thigh, f"{side}_hip_x", (-sy, 0, 0), -10, 10)
+    hinge(thigh, f"{side}_hip_y", (0, 1, 0), -30, 70)
+    hinge(thigh, f"{side}_hip_z", (0, 0, -sy), -10, 10)
+    thigh.add("geom", name=f"{side}_thigh1", type="capsule", fromto=(0, 0, 0, 0, -0.01 * sy, -0.34),
+              size=0.06, mass=0)
+    shin = thigh.add("body", name=f"{side}_shin", pos=(0, -0.01 * sy, -0.403))
+    _inertial(shin, 4.5228)  # 0.02 m below the knee, at the frame origin
+    hinge(shin, f"{side}_knee", (0, -1, 0), -160, -2, pos=(0, 0, 0.02))
+    default[f"{side}_knee"] = deg(-25)
+    shin.add("geom", name=f"{side}_shin1", type="capsule", fromto=(0, 0, 0, 0, 0, -0.3), size=0.049,
+             mass=0)
+    shin.add("geom", name=f"{side}_shin_end", type="sphere", pos=(0, 0, -0.3), size=0.049, mass=0)
+    shin.add("geom", name=f"{side}_foot", type="sphere", pos=(0, 0, -0.35), size=0.075, mass=0)
+    colliders += [f"{side}_shin_end", f"{side}_foot"]
+  for side, sy in (("right", -1.0), ("left", 1.0)):
+    upper = torso.add("body", name=f"{side}_upper_arm", pos=(0, 0.17 * sy, 0.06))
+    _inertial(upper, 1.6611)
+    lo, hi = (-85, 60) if side == "right" else (-60, 85)
+    hinge(upper, f"{side}_shoulder1", (2, -sy, 1), lo, hi)
+    hinge(upper, f"{side}_shoulder2", (0, sy, 1), lo, hi)
+    upper.add("geom", name=f"{side}_uarm1", type="capsule",
+              fromto=(0, 0, 0, 0.16, 0.16 * sy, -0.16), size=0.04, mass=0)
+    lower = upper.add("body", name=f"{side}_lower_arm", pos=(0.18, 0.18 * sy, -0.18))
+    _inertial(lower, 1.2295)
+    hinge(lower, f"{side}_elbow", (0, -1, sy), -90, 50)
+    lower.add("geom", name=f"{side}_larm", type="capsule",
+              fromto=(0.01, 0.01 * sy, 0.01, 0.17, 0.17 * sy, 0.17), size=0.031, mass=0)
+    lower.add("geom", name=f"{side}_hand", type="sphere", pos=(0.18, 0.18 * sy, 0.18), size=0.04,
+              mass=0)
+  strength = dict(abdomen_z=300, abdomen_y=300, abdomen_x=300, right_hip_x=300, right_hip_y=300,
+                  right_hip_z=300, right_knee=300, left_hip_x=300, left_hip_y=300, left_hip_z=300,
+                  left_knee=300, right_shoulder1=75, right_shoulder2=75, right_elbow=75,
+                  left_shoulder1=75, left_shoulder2=75, left_elbow=75)
+  return ComponentSpec(
+      bodies=(torso,),
+      motors=tuple((j, float(g)) for j, g in strength.items()),
+      root="torso",
+      root_linear={-1: "root"},
+      colliders=tuple(colliders),
+      root_colliders=(),
+      observers=("root_z_joints",),
+      termination=Termination(min_z=0.65, max_z=2.1),
+      default_qpos=default,
+      rest_on_ground=True,
+      torque_cut=True,
+  )
