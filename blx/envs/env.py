@@ -370,7 +370,8 @@ class Env:
     return reward, done, metrics
 
   def reset(self, key: jax.Array) -> State:
-    """Initial state: the model's default pose, plus uniform noise of ``reset_noise_scale``."""
+    """Initial state: ``init_qpos`` (each component's default pose, resting on the floor where the
+    component asks for it) at rest, plus uniform noise of ``reset_noise_scale``."""
     scale = float(self.options["reset_noise_scale"])
     qpos = jnp.asarray(self.init_qpos)
     qvel = jnp.zeros(self.mj_model.nv, jnp.float32)
