@@ -146,9 +146,12 @@ def feature_labels(env, indices) -> list[str]:
   names = {}
   for name, sl in env.obs_layout.items():
     owner, _, piece = name.rpartition("/")
+    base, _, suffix = piece.partition("[")
+    axes = ([int(a) for a in suffix.rstrip("]").split(",")] if suffix
+            else list(range(sl.stop - sl.start)))
     for j, i in enumerate(range(sl.start, sl.stop)):
-      if piece in _QUANTITIES and sl.stop - sl.start == 3:
-        names[i] = f"{owner} {_QUANTITIES[piece]} {'xyz'[j]} (obs {i})"
+      if base in _QUANTITIES and len(axes) == sl.stop - sl.start and max(axes) < 3:
+        names[i] = f"{owner} {_QUANTITIES[base]} {'xyz'[axes[j]]} (obs {i})"
       else:
         names[i] = f"{name}[{j}] (obs {i})"
   return [names.get(int(i), f"obs[{int(i)}]") for i in indices]

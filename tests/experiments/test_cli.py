@@ -148,3 +148,12 @@ def test_envs_describes_an_env(capsys):
   assert cli.main(["envs", "ant"]) == 0
   out = capsys.readouterr().out
   assert "action size 8" in out and "vel_xy" in out and "[13, 14]" in out
+
+
+def test_plot_axes_name_the_quantity_and_the_observation_index():
+  from blx.experiments.plots import feature_labels
+  from tests.conftest import make_env
+  assert feature_labels(make_env("point"), (0, 3)) == ["agent1 position x (obs 0)",
+                                                        "agent1 velocity y (obs 3)"]
+  assert feature_labels(make_env("ant"), (13, 14, 7)) == [
+      "agent1 velocity x (obs 13)", "agent1 velocity y (obs 14)", "agent1/joint_pos[2] (obs 7)"]
