@@ -55,7 +55,8 @@ import numpy as np
 from blx.envs.spec import MAX_LEGS, MIN_LEGS, ComponentSpec, Termination
 from blx.envs.mjcf import Element
 
-__all__ = ["ant", "pro_ant", "halfcheetah", "humanoid", "ANT_DAMPING", "ANT_STRENGTH"]
+__all__ = ["ant", "pro_ant", "halfcheetah", "humanoid", "ANT_DAMPING", "ANT_STRENGTH",
+           "CHEETAH_LINKS", "CHEETAH_RADIUS", "cheetah_skeleton", "cheetah_spec"]
 
 ANT_DAMPING = 35.0        # Brax joint angular_damping, N m s/rad
 ANT_STRENGTH = 300.0      # Brax motor strength (v0.0.6 stock ant)
@@ -151,23 +152,62 @@ def pro_ant(num_legs: int = 4) -> ComponentSpec:
 
 
 # --------------------------------------------------------------------------------------------------
-# Half-cheetah: MuJoCo's geometry at density 1000 without settotalmass (21.18 kg), every link's COM at
-# its joint, isotropic inertias, no joint damping, springs or armature.
+# Half-cheetah. The link geometry is MuJoCo's half_cheetah.xml, which Brax v1 copied; ``gym_halfcheetah``
+# builds on the same skeleton.
 
-_CHEETAH = (  # name, parent, joint pos, range (deg), mass, inertia, geom pos, y angle (rad), half-length
-    ("bthigh", "torso", (-0.5, 0, 0), (-29.79, 60.16), 2.3355, 0.029636, (0.1, 0, -0.13), -3.8, 0.145),
-    ("bshin", "bthigh", (0.16, 0, -0.25), (-44.98, 44.98), 2.4020, 0.032029, (-0.14, 0, -0.07),
-     -2.03, 0.15),
-    ("bfoot", "bshin", (-0.28, 0, -0.14), (-22.92, 44.98), 1.6575, 0.011706, (0.03, 0, -0.097),
-     -0.27, 0.094),
-    ("fthigh", "torso", (0.5, 0, 0), (-57.30, 40.11), 2.1760, 0.024391, (-0.07, 0, -0.12), 0.52,
-     0.133),
-    ("fshin", "fthigh", (-0.14, 0, -0.24), (-68.75, 49.85), 1.8170, 0.014955, (0.065, 0, -0.09),
-     -0.6, 0.106),
-    ("ffoot", "fshin", (0.13, 0, -0.18), (-28.65, 28.65), 1.3384, 0.0067111, (0.045, 0, -0.07),
-     -0.6, 0.07),
+CHEETAH_RADIUS = 0.046
+# name, parent, joint position in the parent, capsule position, capsule angle about y (rad),
+# capsule half-length.
+CHEETAH_LINKS = (
+    ("bthigh", "torso", (-0.5, 0, 0), (0.1, 0, -0.13), -3.8, 0.145),
+    ("bshin", "bthigh", (0.16, 0, -0.25), (-0.14, 0, -0.07), -2.03, 0.15),
+    ("bfoot", "bshin", (-0.28, 0, -0.14), (0.03, 0, -0.097), -0.27, 0.094),
+    ("fthigh", "torso", (0.5, 0, 0), (-0.07, 0, -0.12), 0.52, 0.133),
+    ("fshin", "fthigh", (-0.14, 0, -0.24), (0.065, 0, -0.09), -0.6, 0.106),
+    ("ffoot", "fshin", (0.13, 0, -0.18), (0.045, 0, -0.07), -0.6, 0.07),
 )
-_CHEETAH_GEAR = dict(bthigh=120.0, bshin=90.0, bfoot=60.0, fthigh=120.0, fshin=60.0, ffoot=30.0)
+
+
+def cheetah_skeleton(torso_z: float, **geom_kw) -> dict[str, Element]:
+  """The half-cheetah's bodies and capsules, ``{name: body}`` from ``"torso"`` down: a planar root
+  (x, z slides and a y hinge, unlimited and undamped) and the six links, without their hinges or
+  inertia, which each body adds. ``geom_kw`` goes to every capsule (mass, density, friction)."""
+  torso = Element("body", {"name": "torso", "pos": (0, 0, torso_z)})
+  for name, axis, kind in (("rootx", (1, 0, 0), "slide"), ("rootz", (0, 0, 1), "slide"),
+                           ("rooty", (0, 1, 0), "hinge")):
+    torso.add("joint", name=name, type=kind, axis=axis, armature=0, damping=0, stiffness=0,
+              limited="false")
+  torso.add("geom", name="torso", type="capsule", fromto=(-0.5, 0, 0, 0.5, 0, 0),
+            size=CHEETAH_RADIUS, **geom_kw)
+  torso.add("geom", name="head", type="capsule", pos=(0.6, 0, 0.1), axisangle=(0, 1, 0, 0.87),
+            size=(CHEETAH_RADIUS, 0.15), **geom_kw)
+  bodies = {"torso": torso}
+  for name, parent, pos, gpos, angle, half in CHEETAH_LINKS:
+    bodies[name] = bodies[parent].add("body", name=name, pos=pos)
+    bodies[name].add("geom", name=name, type="capsule", pos=gpos, axisangle=(0, 1, 0, angle),
+                     size=(CHEETAH_RADIUS, half), **geom_kw)
+  return bodies
+
+
+def cheetah_spec(bodies: dict[str, Element], motors, colliders, **extra) -> ComponentSpec:
+  """The ComponentSpec of a half-cheetah built on ``cheetah_skeleton``: planar, no termination."""
+  return ComponentSpec(
+      bodies=(bodies["torso"],), motors=tuple(motors), root="torso",
+      root_linear={0: "rootx", 2: "rootz"}, root_angular={1: "rooty"}, colliders=tuple(colliders),
+      root_colliders=("torso", "head"), observers=("root_z_joints",), termination=None,
+      planar_axes=(0,), friction=0.4, **extra)
+
+
+# Brax v1: MuJoCo's geometry at density 1000 without settotalmass (21.18 kg), every link's COM at
+# its joint, isotropic inertias, no joint damping, springs or armature.
+_CHEETAH = dict(  # range (deg), mass, inertia, strength
+    bthigh=((-29.79, 60.16), 2.3355, 0.029636, 120.0),
+    bshin=((-44.98, 44.98), 2.4020, 0.032029, 90.0),
+    bfoot=((-22.92, 44.98), 1.6575, 0.011706, 60.0),
+    fthigh=((-57.30, 40.11), 2.1760, 0.024391, 120.0),
+    fshin=((-68.75, 49.85), 1.8170, 0.014955, 60.0),
+    ffoot=((-28.65, 28.65), 1.3384, 0.0067111, 30.0),
+)
 # Four Newton iterations, not the one the other bodies use: light links (down to 1.3 kg, inertia
 # 0.0067) on a 9.5 kg torso make the constraint problem badly conditioned, and one iteration leaves
 # float32 MJX and float64 MuJoCo 0.9 m apart after three random steps; four agree to 4e-5.
@@ -181,45 +221,18 @@ def halfcheetah() -> ComponentSpec:
   default pose puts every joint at its range midpoint. Observation (23): torso z, quaternion, 6
   angles, torso velocity (y = 0), angular velocity, 6 joint velocities; vx is index 11.
   """
-  radius = 0.046
-  torso = Element("body", {"name": "torso", "pos": (0, 0, 0.6)})
-  for name, axis, kind in (("rootx", (1, 0, 0), "slide"), ("rootz", (0, 0, 1), "slide"),
-                           ("rooty", (0, 1, 0), "hinge")):
-    torso.add("joint", name=name, type=kind, axis=axis, armature=0, damping=0, stiffness=0,
-              limited="false")
-  _inertial(torso, 9.4573, 0.94480)
-  torso.add("geom", name="torso", type="capsule", fromto=(-0.5, 0, 0, 0.5, 0, 0), size=radius,
-            mass=0)
-  torso.add("geom", name="head", type="capsule", pos=(0.6, 0, 0.1), axisangle=(0, 1, 0, 0.87),
-            size=(radius, 0.15), mass=0)
-  bodies = {"torso": torso}
+  bodies = cheetah_skeleton(0.6, mass=0)
+  _inertial(bodies["torso"], 9.4573, 0.94480)
   default = {}
-  for name, parent, pos, (lo, hi), mass, inertia, gpos, angle, half in _CHEETAH:
-    body = bodies[parent].add("body", name=name, pos=pos)
-    body.add("joint", name=name, type="hinge", axis=(0, 1, 0),
-             range=(math.radians(lo), math.radians(hi)), damping=0, stiffness=0, armature=0,
-             limited="true", solreflimit=ANT_LIMIT)
-    _inertial(body, mass, inertia)
-    body.add("geom", name=name, type="capsule", pos=gpos, axisangle=(0, 1, 0, angle),
-             size=(radius, half), mass=0)
-    bodies[name] = body
+  for name, ((lo, hi), mass, inertia, _) in _CHEETAH.items():
+    bodies[name].add("joint", name=name, type="hinge", axis=(0, 1, 0),
+                     range=(math.radians(lo), math.radians(hi)), damping=0, stiffness=0,
+                     armature=0, limited="true", solreflimit=ANT_LIMIT)
+    _inertial(bodies[name], mass, inertia)
     default[name] = math.radians(0.5 * (lo + hi))
-  return ComponentSpec(
-      bodies=(torso,),
-      motors=tuple(_CHEETAH_GEAR.items()),
-      root="torso",
-      root_linear={0: "rootx", 2: "rootz"},
-      root_angular={1: "rooty"},
-      colliders=("torso", "head", "bthigh", "bfoot", "fthigh", "ffoot"),
-      root_colliders=("torso", "head"),
-      observers=("root_z_joints",),
-      termination=None,
-      planar_axes=(0,),
-      friction=0.4,
-      default_qpos=default,
-      rest_on_ground=True,
-      torque_cut=True,
-  )
+  return cheetah_spec(bodies, [(n, row[3]) for n, row in _CHEETAH.items()],
+                      ("torso", "head", "bthigh", "bfoot", "fthigh", "ffoot"),
+                      default_qpos=default, rest_on_ground=True, torque_cut=True)
 
 
 # --------------------------------------------------------------------------------------------------

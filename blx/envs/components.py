@@ -20,6 +20,7 @@ from typing import Any, Callable, Mapping
 
 import numpy as np
 
+from blx.envs import brax_bodies  # the paper's bodies
 from blx.envs.mjcf import Element
 from blx.envs.spec import MAX_LEGS, MIN_LEGS, ComponentSpec, Termination
 
@@ -160,67 +161,32 @@ def gym_humanoid() -> ComponentSpec:
 
 
 # --------------------------------------------------------------------------------------------------
-# Half-cheetah (Gymnasium half_cheetah.xml dimensions; planar, total mass 14 kg).
+# Half-cheetah (Gymnasium half_cheetah.xml: the shared skeleton, damped and sprung, 14 kg).
 
-_CHEETAH_GEOMS = (  # name, body-relative pos, axis-angle about y, half-length; all radius 0.046
-    ("bthigh", (0.1, 0, -0.13), -3.8, 0.145),
-    ("bshin", (-0.14, 0, -0.07), -2.03, 0.15),
-    ("bfoot", (0.03, 0, -0.097), -0.27, 0.094),
-    ("fthigh", (-0.07, 0, -0.12), 0.52, 0.133),
-    ("fshin", (0.065, 0, -0.09), -0.6, 0.106),
-    ("ffoot", (0.045, 0, -0.07), -0.6, 0.07),
-)
-_CHEETAH_JOINTS = dict(  # body pos, range, stiffness, damping, gear
-    bthigh=((-0.5, 0, 0), (-0.52, 1.05), 240, 6.0, 120),
-    bshin=((0.16, 0, -0.25), (-0.785, 0.785), 180, 4.5, 90),
-    bfoot=((-0.28, 0, -0.14), (-0.4, 0.785), 120, 3.0, 60),
-    fthigh=((0.5, 0, 0), (-1.0, 0.7), 180, 4.5, 120),
-    fshin=((-0.14, 0, -0.24), (-1.2, 0.87), 120, 3.0, 60),
-    ffoot=((0.13, 0, -0.18), (-0.5, 0.5), 60, 1.5, 30),
+_CHEETAH_JOINTS = dict(  # range, stiffness, damping, gear
+    bthigh=((-0.52, 1.05), 240, 6.0, 120),
+    bshin=((-0.785, 0.785), 180, 4.5, 90),
+    bfoot=((-0.4, 0.785), 120, 3.0, 60),
+    fthigh=((-1.0, 0.7), 180, 4.5, 120),
+    fshin=((-1.2, 0.87), 120, 3.0, 60),
+    ffoot=((-0.5, 0.5), 60, 1.5, 30),
 )
 
 
 def gym_halfcheetah() -> ComponentSpec:
   """The MuJoCo/Gymnasium half-cheetah (14 kg, damped, sprung joints): planar root (x, z slides and
   a y hinge) and 6 joints. Not the paper's body: see ``halfcheetah``."""
-  radius = 0.046
-  half_lengths = [0.5, 0.15] + [g[3] for g in _CHEETAH_GEOMS]
-  volume = sum(math.pi * radius**2 * 2 * h + 4 / 3 * math.pi * radius**3 for h in half_lengths)
+  r = brax_bodies.CHEETAH_RADIUS
+  half_lengths = [0.5, 0.15] + [link[5] for link in brax_bodies.CHEETAH_LINKS]
+  volume = sum(math.pi * r**2 * 2 * h + 4 / 3 * math.pi * r**3 for h in half_lengths)
   density = 14.0 / volume  # Gymnasium sets the total mass to 14 kg
-  geom_kw = dict(density=density, friction=(0.4, 0.1, 0.1))
-  torso = Element("body", {"name": "torso", "pos": (0, 0, 0.7)})
-  for name, axis, kind in (("rootx", (1, 0, 0), "slide"), ("rootz", (0, 0, 1), "slide"),
-                           ("rooty", (0, 1, 0), "hinge")):
-    torso.add("joint", name=name, type=kind, axis=axis, armature=0, damping=0, stiffness=0,
-              limited=False)
-  torso.add("geom", name="torso", type="capsule", fromto=(-0.5, 0, 0, 0.5, 0, 0), size=radius,
-            **geom_kw)
-  torso.add("geom", name="head", type="capsule", pos=(0.6, 0, 0.1), axisangle=(0, 1, 0, 0.87),
-            size=(radius, 0.15), **geom_kw)
-  parents = {"bthigh": torso, "fthigh": torso}
-  chain = {"bthigh": "bshin", "bshin": "bfoot", "fthigh": "fshin", "fshin": "ffoot"}
-  for name, gpos, angle, half in _CHEETAH_GEOMS:
-    pos, rng, stiffness, damping, _ = _CHEETAH_JOINTS[name]
-    body = parents[name].add("body", name=name, pos=pos)
-    body.add("joint", name=name, type="hinge", axis=(0, 1, 0), range=rng, stiffness=stiffness,
-             damping=damping, armature=0.1, solreflimit=(0.02, 1), solimplimit=(0, 0.8, 0.03))
-    body.add("geom", name=name, type="capsule", pos=gpos, axisangle=(0, 1, 0, angle),
-             size=(radius, half), **geom_kw)
-    if name in chain:
-      parents[chain[name]] = body
-  return ComponentSpec(
-      bodies=(torso,),
-      motors=tuple((n, float(j[4])) for n, j in _CHEETAH_JOINTS.items()),
-      root="torso",
-      root_linear={0: "rootx", 2: "rootz"},
-      root_angular={1: "rooty"},
-      colliders=("torso", "head", "bshin", "bfoot", "fshin", "ffoot"),
-      root_colliders=("torso", "head"),
-      observers=("root_z_joints",),
-      termination=None,
-      planar_axes=(0,),
-      friction=0.4,
-  )
+  bodies = brax_bodies.cheetah_skeleton(0.7, density=density, friction=(0.4, 0.1, 0.1))
+  for name, (rng, stiffness, damping, _) in _CHEETAH_JOINTS.items():
+    bodies[name].add("joint", name=name, type="hinge", axis=(0, 1, 0), range=rng,
+                     stiffness=stiffness, damping=damping, armature=0.1, solreflimit=(0.02, 1),
+                     solimplimit=(0, 0.8, 0.03))
+  return brax_bodies.cheetah_spec(bodies, [(n, float(j[3])) for n, j in _CHEETAH_JOINTS.items()],
+                                  ("torso", "head", "bshin", "bfoot", "fshin", "ffoot"))
 
 
 # --------------------------------------------------------------------------------------------------
@@ -284,8 +250,6 @@ def point(gear: float = 4.0, damping: float = 2.0) -> ComponentSpec:
 
 # --------------------------------------------------------------------------------------------------
 # Registry.
-
-from blx.envs import brax_bodies  # noqa: E402  (the paper's bodies)
 
 _COMPONENTS: dict[str, Callable[..., ComponentSpec]] = {
     "ant": brax_bodies.ant,

@@ -5,7 +5,9 @@
 (3 ms x 5), half-cheetah 50 ms (3.125 ms x 16, Brax's own substep), and Brax's rewards (the ant's
 small contact cost, -0.5e-3 sum clip(contact dv)^2, is left out). ``gym_ant``, ``gym_humanoid`` and
 ``gym_halfcheetah`` are the same tasks on the light MuJoCo/Gymnasium bodies. The point mass steps at
-50 ms x 2 (100 ms). All use the MJX-friendly solver defaults of ``blx.envs.composer.GLOBAL_OPTIONS``.
+50 ms x 2 (100 ms). All use the MJX-friendly solver defaults of ``blx.envs.composer.GLOBAL_OPTIONS``
+(one Newton iteration) except the half-cheetah and ``ant_chase``, which need four for a converged
+solve (see ``CHEETAH_OPTIONS`` and ``ant_chase``).
 """
 
 from __future__ import annotations

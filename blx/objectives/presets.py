@@ -91,6 +91,9 @@ def _check_types(who: str, *, numbers: dict | None = None, flags: dict | None = 
                      f"{hidden!r}")
 
 
+SPECTRAL_ITERATIONS = ("fixed", "persistent")
+
+
 def _check_spectral(who: str, spectral_iteration: Any) -> None:
   if spectral_iteration not in SPECTRAL_ITERATIONS:
     raise ValueError(f"{who}: spectral_iteration={spectral_iteration!r} is not valid; valid values "
@@ -103,9 +106,6 @@ def _check_options(who: str, *, logits_clip: float, obs_scale: float) -> None:
     raise ValueError(f"{who}: logits_clip must be > 0, got {logits_clip}")
   if not obs_scale > 0:
     raise ValueError(f"{who}: obs_scale must be > 0, got {obs_scale}")
-
-
-SPECTRAL_ITERATIONS = ("fixed", "persistent")
 
 
 class _Disc:

@@ -139,3 +139,24 @@ def test_two_devices_match_one_device(tmp_path):
   assert int(np.load(tmp_path / "two.npz")["devices"]) == 2
   for a, b in zip(_leaves(tmp_path / "one.npz"), _leaves(tmp_path / "two.npz")):
     np.testing.assert_allclose(a, b, rtol=1e-3, atol=1e-4)
+
+
+def test_non_finite_report_names_the_first_bad_iteration_and_everything_bad_there():
+  from blx.training.loop import _check_finite
+  shape = (2, 4)  # [seeds, iterations]
+  flags = {q: np.zeros(shape, bool) for q in ("observation", "loss", "params")}
+  flags["loss"][0, 2] = flags["loss"][1, 3] = True
+  flags["observation"][1, 2] = flags["params"][1, 2] = True
+  metrics = {f"nonfinite/{q}": f for q, f in flags.items()}
+  # Iteration 2 comes first; there seed 0 has a bad loss only (seed order breaks the tie).
+  with pytest.raises(training.NonFiniteError, match=r"non-finite loss at iteration 12 \(seed 7\)$"):
+    _check_finite(metrics, 10, [7, 8], None)
+  flags["loss"][0, 2] = False
+  # Now seed 8's iteration 2 is first: observation, loss and params, observation named first.
+  flags["loss"][1, 2] = True
+  with pytest.raises(training.NonFiniteError,
+                     match=r"non-finite observation and loss and params at iteration 12 \(seed 8\); "
+                           r"the last good checkpoint in ckpt is kept"):
+    _check_finite(metrics, 10, [7, 8], "ckpt")
+  flags["loss"][1, 2] = flags["observation"][1, 2] = flags["params"][1, 2] = flags["loss"][1, 3] = False
+  _check_finite(metrics, 10, [7, 8], None)  # all finite: no error
