@@ -1,7 +1,7 @@
 """The paper's Ant rows (Tables 3 and 4) through the sweep machinery of ``blx sweep``.
 
     python benchmarks/paper_tables.py [--seeds 10] [--only gcrl|mimax|dmin] [--objective diayn]
-                                      [--collect] [--out sweeps/paper]
+                                      [--collect] [--out sweeps/paper] [--env-edits JSON]
     python benchmarks/paper_tables.py --compare DIR   # every DIR/**/eval.json against the paper
 
 ``--objective`` trains only that algorithm's point (one process per GPU:
@@ -86,8 +86,9 @@ def compare(directory: str) -> str:
   return "\n".join(rows)
 
 
-def specs(seeds: int) -> dict:
-  common = dict(env="ant", seeds=list(range(seeds)), steps=60_000_000)
+def specs(seeds: int, edits: dict | None = None) -> dict:
+  common = dict(env="ant", seeds=list(range(seeds)), steps=60_000_000,
+                env_params=dict(edits=edits) if edits else {})
   return {
       # gcrl learns no discriminator, so spectral norm is not one of its options.
       "gcrl": dict(name="paper_gcrl_ant", objective=["gcrl"],
@@ -106,6 +107,9 @@ def main():
   parser.add_argument("--objective", default=None, help="train only this algorithm's point")
   parser.add_argument("--collect", action="store_true", help="only gather evaluated points")
   parser.add_argument("--out", default="sweeps/paper")
+  parser.add_argument("--env-edits", default=None, metavar="JSON",
+                      help="edits of the ant's desc for an ablation, e.g. "
+                           "'{\"global_options\": {\"timestep\": 0.005, \"substeps\": 10}}'")
   parser.add_argument("--compare", default=None, metavar="DIR",
                       help="only print the verdicts for the eval.json files under DIR")
   args = parser.parse_args()
@@ -120,7 +124,8 @@ def main():
     select = lambda name, run_spec: False
   elif args.objective:
     select = lambda name, run_spec: run_spec.objective == args.objective
-  for family, spec in specs(args.seeds).items():
+  edits = json.loads(args.env_edits) if args.env_edits else None
+  for family, spec in specs(args.seeds, edits).items():
     if args.only and family != args.only:
       continue
     if args.objective and args.objective not in spec["objective"]:

@@ -5,6 +5,7 @@ from blx.envs.components import ComponentSpec, Termination, list_components, reg
 from blx.envs.composer import GLOBAL_OPTIONS, Scene, apply_edits, compose
 from blx.envs.env import Env, State
 from blx.envs.registry import create, env_params, get_desc, list_envs, register_env
+from blx.envs.rollout import alive_before, rollout
 from blx.envs.wrappers import action_repeat, auto_reset, episode, unwrap
 
 __all__ = [
@@ -12,5 +13,5 @@ __all__ = [
     "GLOBAL_OPTIONS", "Scene", "apply_edits", "compose",
     "Env", "State",
     "create", "env_params", "get_desc", "list_envs", "register_env",
-    "action_repeat", "auto_reset", "episode", "unwrap",
+    "action_repeat", "auto_reset", "episode", "unwrap", "rollout", "alive_before",
 ]

@@ -35,13 +35,15 @@ What MJX cannot copy, and what blx does instead:
   Brax's 87-dim ant observation also has 6 always-zero entries for the frozen ground; blx omits them
   (81 dims), so every index the paper uses (13, 14) is where the paper has it.
 * **The v0.0.6 rotation bug** (orientations integrated at twice the angular velocity) is not copied.
-* **Integration.** One env step is ``substeps`` MuJoCo steps of semi-implicit Euler. The registered
-  ``ant`` uses 5 steps of 10 ms for the 0.05 s control step, against Brax's 10 impulse substeps of
-  5 ms; ``edits={"global_options": dict(timestep=0.005, substeps=10)}`` gives Brax's count. The
-  two agree on the fact sheet's signatures (random actions: no early ends in 128 episodes, torso z
-  mean 0.504 against 0.516, xy velocity std 0.44 against 0.45; Brax: 1.6 % (0.8 % with its rotation
-  bug fixed), 0.511 (0.475), 0.56 (0.46)), and 10 ms steps cost half the physics.
-  ``tests/envs/test_brax_bodies.py`` checks the registered setting against the fact sheet.
+* **Integration.** One env step is ``substeps`` MuJoCo steps of semi-implicit Euler. The ant's envs
+  use Brax's own substep, 10 steps of 5 ms per 0.05 s control step (:data:`ANT_OPTIONS`).
+  :data:`ANT_FAST_OPTIONS` (5 steps of 10 ms) halves the physics and is a deviation: both agree on
+  the fact sheet's random-action signatures, but not on how fast the ant can run. Under the same
+  open-loop gait search (cross-entropy over sinusoid gaits; C MuJoCo, and Brax's ``legacy_spring``
+  physics on this config) the searches' elite gaits run 2.6-3.3 m/s on Brax, 2.0-2.1 m/s at 5 ms and
+  1.5-1.6 m/s at 10 ms; gaits found at 5 ms average 1.8-1.9 m/s, and 0.9-1.2 m/s replayed at 10 ms.
+  Task PPO on ``ant_run`` (target (4, 0) m/s) ends 0.94 m/s from the target at 5 ms and 1.49 m/s at
+  10 ms (``benchmarks/RESULTS.md``, session 5).
 * **Joint velocity sign.** Brax observes (ω_parent - ω_child)·axis, minus the angle's rate; blx
   observes the angle's rate (MuJoCo's ``qvel``).
 """
@@ -55,7 +57,8 @@ import numpy as np
 from blx.envs.spec import MAX_LEGS, MIN_LEGS, ComponentSpec, Termination
 from blx.envs.mjcf import Element
 
-__all__ = ["ant", "pro_ant", "halfcheetah", "humanoid", "ANT_DAMPING", "ANT_STRENGTH",
+__all__ = ["ant", "pro_ant", "halfcheetah", "humanoid", "ANT_DAMPING", "ANT_STRENGTH", "ANT_OPTIONS",
+           "ANT_FAST_OPTIONS",
            "CHEETAH_LINKS", "CHEETAH_RADIUS", "cheetah_skeleton", "cheetah_spec"]
 
 ANT_DAMPING = 35.0        # Brax joint angular_damping, N m s/rad
@@ -63,6 +66,10 @@ ANT_STRENGTH = 300.0      # Brax motor strength (v0.0.6 stock ant)
 PRO_ANT_STRENGTH = 350.0  # Braxlines' procedural ant
 ANT_LIMIT = (0.01, 1.0)   # solreflimit: 100 rad/s (Brax's limit_strength 5000 on inertia-1 links), damped
 _UNIT = dict(diaginertia=(1.0, 1.0, 1.0))
+# Brax's ant steps 0.05 s as 10 substeps of 5 ms; the registered ant envs do the same.
+ANT_OPTIONS = dict(timestep=0.005, substeps=10)
+# Half the physics per control step; slows the ant's fastest gaits (see the module docstring).
+ANT_FAST_OPTIONS = dict(timestep=0.01, substeps=5)
 
 
 def _inertial(body: Element, mass: float, inertia: float | None = None, pos=(0, 0, 0)) -> None:
@@ -136,7 +143,8 @@ def ant() -> ComponentSpec:
 
   Observation (81): torso z, quaternion, 8 joint angles, torso velocity (world), angular velocity
   (world), 8 joint velocities, then contact Δv (9 bodies x 3) and Δω (9 x 3), clipped to +-1. Episodes
-  end when the torso leaves z in [0.2, 1.0]; there is no upside-down rule (Brax v0.0.6).
+  end when the torso leaves z in [0.2, 1.0]; there is no upside-down rule (Brax v0.0.6). Brax's
+  control step is ``global_options=ANT_OPTIONS`` (the registered ant envs set it).
   """
   return _brax_ant(4, math.pi / 4, ANT_STRENGTH, brax_axes=True)
 

@@ -31,6 +31,7 @@ from __future__ import annotations
 
 import copy
 import dataclasses
+import math
 from typing import Any, Mapping
 
 from blx.envs import components as components_lib
@@ -84,21 +85,28 @@ def _check_keys(where: str, mapping: Any, valid: tuple[str, ...]) -> None:
 
 def _vector(where: str, value: Any, size: int) -> tuple[float, ...]:
   if (not isinstance(value, (tuple, list)) or len(value) != size
-      or not all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in value)):
-    raise _err(where, f"expected {size} numbers, got {value!r}")
+      or not all(isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
+                 for v in value)):
+    raise _err(where, f"expected {size} finite numbers, got {value!r}")
   return tuple(float(v) for v in value)
+
+
+MAX_STEPS_PER_CALL = 1000  # substeps per env step, solver iterations: more is a typo, not a setting
 
 
 def _check_options(options: Any) -> dict[str, Any]:
   _check_keys("global_options", options, tuple(GLOBAL_OPTIONS))
   merged = {**GLOBAL_OPTIONS, **options}
   for key in ("timestep", "reset_noise_scale"):
-    if not isinstance(merged[key], (int, float)) or merged[key] < 0 or (
-        key == "timestep" and merged[key] == 0):
+    if (not isinstance(merged[key], (int, float)) or isinstance(merged[key], bool)
+        or not math.isfinite(merged[key]) or merged[key] < 0 or (
+        key == "timestep" and merged[key] == 0)):
       raise _err(f"global_options.{key}", f"must be a {'positive' if key == 'timestep' else 'non-negative'} number, got {merged[key]!r}")
   for key in ("substeps", "iterations", "ls_iterations"):
-    if not isinstance(merged[key], int) or isinstance(merged[key], bool) or merged[key] < 1:
-      raise _err(f"global_options.{key}", f"must be a positive int, got {merged[key]!r}")
+    if (not isinstance(merged[key], int) or isinstance(merged[key], bool)
+        or not 1 <= merged[key] <= MAX_STEPS_PER_CALL):
+      raise _err(f"global_options.{key}", f"must be an int in 1..{MAX_STEPS_PER_CALL}, got "
+                 f"{merged[key]!r}")
   if merged["solver"] not in SOLVERS:
     raise _err("global_options.solver", f"unknown solver {merged['solver']!r}; valid solvers are "
                f"{list(SOLVERS)}")

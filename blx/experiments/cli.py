@@ -101,36 +101,89 @@ def cmd_envs(args) -> int:
   return 0
 
 
-def _spec_from_args(args):
-  from blx.experiments import runs
+def _given(args) -> dict:
+  """The run settings given on the command line, by what they set: ``env``, ``objective``,
+  ``seeds``, ``option:NAME``, ``config:NAME``, ``env_param:NAME``."""
+  given = {}
+  if args.env is not None:
+    given["env"] = args.env
+  if args.objective is not None:
+    given["objective"] = args.objective
+  if args.seeds is not None:
+    given["seeds"] = list(_parse_seeds(args.seeds))
   options = _parse_pairs(args.option, "--option")
   if args.num_skills is not None:
     options["num_skills"] = args.num_skills
-  elif args.objective in ("diayn", "diayn_full") and args.env == DEFAULT_ENV:
-    options.setdefault("num_skills", DEFAULT_SKILLS)
   if args.obs_indices is not None:
     options["obs_indices"] = _parse_value(args.obs_indices)
   ppo = _parse_pairs(args.config, "--config")
   if args.steps is not None:
     ppo["num_timesteps"] = args.steps
-  return runs.RunSpec(env=args.env, objective=args.objective, objective_options=options,
-                      ppo=ppo, seeds=_parse_seeds(args.seeds),
-                      env_params=_parse_pairs(args.env_param, "--env-param"))
+  given.update({f"option:{k}": v for k, v in options.items()})
+  given.update({f"config:{k}": v for k, v in ppo.items()})
+  given.update({f"env_param:{k}": v for k, v in _parse_pairs(args.env_param, "--env-param").items()})
+  return given
+
+
+def _spec_from_args(args):
+  from blx.experiments import runs
+  given = _given(args)
+  env = given.get("env", DEFAULT_ENV)
+  objective = given.get("objective", DEFAULT_OBJECTIVE)
+  pick = lambda group: {k.split(":", 1)[1]: v for k, v in given.items() if k.startswith(group)}
+  options = pick("option:")
+  if objective in ("diayn", "diayn_full") and env == DEFAULT_ENV:
+    options.setdefault("num_skills", DEFAULT_SKILLS)
+  return runs.RunSpec(env=env, objective=objective, objective_options=options,
+                      ppo=pick("config:"), seeds=tuple(given.get("seeds", (0,))),
+                      env_params=pick("env_param:"))
+
+
+def _resume_spec(args, directory: str):
+  """The run's own spec; every setting also given on the command line must agree with it."""
+  from blx.experiments import runs
+  spec = runs.read_spec(directory)
+  have = {"env": spec.env, "objective": spec.objective, "seeds": list(spec.seeds),
+          **{f"option:{k}": v for k, v in spec.objective_options.items()},
+          **{f"config:{k}": v for k, v in spec.ppo.items()},
+          **{f"env_param:{k}": v for k, v in spec.env_params.items()}}
+  flag = {"option": "--option", "config": "--config", "env_param": "--env-param"}
+  for key, value in _given(args).items():
+    if key not in have or _jsonish(have[key]) != _jsonish(value):
+      group, _, name = key.partition(":")
+      shown = f"{flag[group]} {name}={value!r}" if name else f"--{key} {value!r}"
+      was = f"{have[key]!r}" if key in have else "not set"
+      raise UsageError(f"--resume {directory}: {shown} contradicts the run, where it is {was}; "
+                       "leave the flag out to continue the run as it was")
+  return spec
+
+
+def _jsonish(value):
+  return json.loads(json.dumps(value, default=str))
 
 
 def cmd_train(args) -> int:
   from blx.experiments import runs
-  spec = _spec_from_args(args)
+  resume = args.resume is not None
+  if resume:
+    out = args.resume or args.out
+    if not out:
+      raise UsageError("--resume: name the run directory (blx train --resume DIR)")
+    if args.resume and args.out and os.path.abspath(args.out) != os.path.abspath(args.resume):
+      raise UsageError(f"--resume {args.resume} and --out {args.out} name different directories")
+    spec = _resume_spec(args, out)
+  else:
+    spec = _spec_from_args(args)
+    out = args.out or os.path.join(
+        "runs", f"{spec.env}_{spec.objective}_{time.strftime('%Y%m%d-%H%M%S')}")
   runs.build(spec)  # validate everything before creating a directory
-  out = args.out or os.path.join("runs", f"{spec.env}_{spec.objective}_{time.strftime('%Y%m%d-%H%M%S')}")
   print(f"[blx] training {spec.objective} on {spec.env}, seeds {list(spec.seeds)} -> {out}",
         file=sys.stderr)
   try:
-    run = runs.train_run(spec, out, resume=args.resume, progress=_Progress(),
+    run = runs.train_run(spec, out, resume=resume, progress=_Progress(),
                          eval_metrics=args.eval_metrics)
   except KeyboardInterrupt:
-    print(f"[blx] interrupted: resume with  blx train --out {out} --resume  (and the same "
-          "--env/--objective/--seeds)", file=sys.stderr)
+    print(f"[blx] interrupted: continue with  blx train --resume {out}", file=sys.stderr)
     return 130
   _print_summary(run.meta["eval"]["summary"])
   print(f"[blx] run directory: {out} (config.json, metrics.csv, eval.json, checkpoint/, "
@@ -156,12 +209,34 @@ def cmd_eval(args) -> int:
   return 0
 
 
+MAX_FRAME = 4096  # pixels per side
+
+
+def _check_render_args(args) -> None:
+  """Rejects render options that would fail late or write something else than asked."""
+  for flag, value in (("--width", args.width), ("--height", args.height)):
+    if not 16 <= value <= MAX_FRAME:
+      raise UsageError(f"{flag} {value}: valid sizes are 16..{MAX_FRAME} pixels")
+  if args.steps is not None and args.steps < 1:
+    raise UsageError(f"--steps {args.steps}: give at least 1 env step (or leave it out for the "
+                     "whole episode)")
+  if args.out is not None and not args.out.lower().endswith(".mp4"):
+    raise UsageError(f"--out {args.out!r}: blx render writes MP4 video; give a path ending in .mp4")
+  if args.skills:
+    try:
+      [int(s) for s in args.skills.split(",")]
+    except ValueError:
+      raise UsageError(f"--skills {args.skills!r}: expected comma-separated skill numbers, e.g. "
+                       "--skills 0,3") from None
+
+
 def cmd_render(args) -> int:
   import jax
   import jax.numpy as jnp
   import numpy as np
   from blx import metrics
   from blx.experiments import render, runs  # the GL backend was chosen in _quiet_imports
+  _check_render_args(args)
   run = runs.load_run(args.dir)
   if not 0 <= args.seed_index < len(run.spec.seeds):
     raise UsageError(f"--seed-index {args.seed_index}: the run has {len(run.spec.seeds)} seed(s)")
@@ -214,18 +289,21 @@ def _parser() -> argparse.ArgumentParser:
   p.set_defaults(fn=cmd_envs)
 
   p = sub.add_parser("train", help="train an objective on an env into a run directory")
-  p.add_argument("--env", default=DEFAULT_ENV)
-  p.add_argument("--objective", default=DEFAULT_OBJECTIVE)
+  p.add_argument("--env", default=None, help=f"a registered env (default {DEFAULT_ENV})")
+  p.add_argument("--objective", default=None, help=f"default {DEFAULT_OBJECTIVE}")
   p.add_argument("--num-skills", type=int, default=None)
   p.add_argument("--obs-indices", default=None,
                  help="a name such as vel_xy (see `blx envs ENV`) or a list such as [13,14]")
   p.add_argument("--steps", type=int, default=None, help="env steps (default: the env's PPO row)")
-  p.add_argument("--seeds", default="0", help="comma-separated, trained in one vmapped program")
+  p.add_argument("--seeds", default=None,
+                 help="comma-separated, trained in one vmapped program (default 0)")
   p.add_argument("--config", action="append", metavar="KEY=VALUE", help="a PPOConfig field")
   p.add_argument("--option", action="append", metavar="KEY=VALUE", help="an objective option")
   p.add_argument("--env-param", action="append", metavar="KEY=VALUE", help="an env parameter")
   p.add_argument("--out", default=None, help="run directory (default runs/ENV_OBJ_TIME)")
-  p.add_argument("--resume", action="store_true", help="continue the run in --out")
+  p.add_argument("--resume", nargs="?", const="", default=None, metavar="DIR",
+                 help="continue the run in DIR (or --out) with its own config.json; flags given "
+                      "with it must agree with the run")
   p.add_argument("--eval-metrics", action="store_true",
                  help="log MI / LGR / energy distance at every evaluation (slower)")
   p.set_defaults(fn=cmd_train)

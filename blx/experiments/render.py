@@ -29,16 +29,13 @@ def rollout_qpos(run, params, latents, key, *, steps: int):
   @jax.jit
   def go(params, latents, key):
     state = jax.vmap(env.reset)(jax.random.split(key, n))
-
-    def one(carry, _):
-      state, alive, held = carry
-      action = run.policy(params, state.obs, latents if conditions else None)
-      nxt = jax.vmap(env.step)(state, action)
-      qpos = jnp.where(alive[:, None] > 0, nxt.data.qpos, held)
-      return (nxt, alive * (1.0 - nxt.done), qpos), qpos
-
+    act = lambda obs, _: run.policy(params, obs, latents if conditions else None)
+    _, (qpos, done) = envs.rollout(env, act, state, steps, key,
+                                   lambda state, action, nxt: (nxt.data.qpos, nxt.done))
+    # After an episode ends, hold the pose of the step it ended on.
+    last = (jnp.cumsum(envs.alive_before(done), axis=0) - 1).astype(jnp.int32)   # [T, L]
+    qpos = jnp.take_along_axis(qpos, jnp.broadcast_to(last[..., None], qpos.shape), axis=0)
     first = state.data.qpos
-    _, qpos = jax.lax.scan(one, (state, jnp.ones(n), first), None, length=steps)
     return jnp.concatenate([first[None], qpos], 0).swapaxes(0, 1)
 
   return go(params, latents, key)
@@ -59,6 +56,9 @@ def render_frames(mj_model, qpos, *, width: int = 320, height: int = 240):
   camera.elevation = -35.0
   camera.azimuth = 90.0
   frames = []
+  # The offscreen buffer must hold the frame (MJCF's default is 640 x 480).
+  mj_model.vis.global_.offwidth = max(mj_model.vis.global_.offwidth, width)
+  mj_model.vis.global_.offheight = max(mj_model.vis.global_.offheight, height)
   try:
     renderer = mujoco.Renderer(mj_model, height, width)
   except Exception as e:  # no usable OpenGL: say what to install

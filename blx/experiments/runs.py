@@ -99,11 +99,11 @@ def write_config(directory: str, spec: RunSpec, env) -> None:
           "ppo": spec.ppo, "seeds": list(spec.seeds)}
   tmp = os.path.join(directory, "config.json.tmp")
   with open(tmp, "w") as f:
-    json.dump(data, f, indent=2, default=_json_default)
+    json.dump(data, f, indent=2, default=json_default)
   os.replace(tmp, os.path.join(directory, "config.json"))
 
 
-def _json_default(x):
+def json_default(x):
   if isinstance(x, (np.ndarray, jax.Array)):
     return np.asarray(x).tolist()
   if isinstance(x, (np.integer, np.floating)):
@@ -225,12 +225,18 @@ def train_run(spec: RunSpec, directory: str, *, resume: bool = False, progress=T
   if exists and not resume:
     raise RunError(f"{directory!r} already holds a run; pass --resume to continue it or choose "
                    "another --out")
+  if resume and not exists:
+    raise RunError(f"nothing to resume: {directory!r} is not a blx run directory (no config.json)")
+  if not exists and os.path.exists(os.path.join(directory, "checkpoint")):
+    raise RunError(f"{directory!r} holds a checkpoint but no config.json; it is not overwritten: "
+                   "choose another --out")
   if exists:
     old = read_spec(directory)
     if (old.env, old.objective, list(old.seeds)) != (spec.env, spec.objective, list(spec.seeds)):
       raise RunError(f"{directory!r} holds a run of {old.objective} on {old.env} with seeds "
                      f"{list(old.seeds)}; resume it with the same settings")
-  write_config(directory, spec, env)
+  else:  # a resumed run keeps its config.json untouched
+    write_config(directory, spec, env)
   evaluator = evaluator_for(env, objective, config, quick=True) if eval_metrics else None
   result = training.train(env, objective, config, seeds=spec.seeds, progress=progress,
                           checkpoint_dir=os.path.join(directory, "checkpoint"), resume=resume,

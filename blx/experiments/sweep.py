@@ -94,9 +94,31 @@ def _fmt(v: Any) -> str:
   return str(v).replace("/", "-").replace(" ", "")
 
 
+def _check_same_point(name: str, directory: str, run_spec: runs.RunSpec, desc: dict) -> None:
+  """A point's directory is reused only for the same definition: env (its full desc, so a change
+  of the library's bodies counts), objective and options, PPO config and steps, seeds."""
+  old = runs.read_spec(directory)
+  as_json = lambda x: json.loads(json.dumps(x, default=runs.json_default))
+  pairs = {"env": (old.env, run_spec.env), "objective": (old.objective, run_spec.objective),
+           "options": (old.objective_options, run_spec.objective_options),
+           "config": (old.ppo, run_spec.ppo), "seeds": (list(old.seeds), list(run_spec.seeds)),
+           "env_params": (old.env_params, run_spec.env_params), "desc": (old.desc, desc)}
+  changed = [key for key, (a, b) in pairs.items() if as_json(a) != as_json(b)]
+  if changed:
+    detail = "; ".join(f"{k}: {as_json(pairs[k][0])!r} -> {as_json(pairs[k][1])!r}"
+                       for k in changed if k != "desc")
+    if "desc" in changed:
+      detail = (detail + "; " if detail else "") + "the env's desc differs (the spec's env " \
+                                                   "params or blx's bodies changed)"
+    raise runs.RunError(f"sweep point {name!r} in {directory} was run with other settings "
+                        f"({detail}); delete that directory to rerun it, or sweep into another "
+                        "--out")
+
+
 def run_sweep(spec: dict, out: str, *, progress=True, eval_metrics: bool = False,
               select: Callable[[str, runs.RunSpec], bool] | None = None) -> list[dict]:
-  """Trains and evaluates every grid point (skipping points already evaluated), then writes
+  """Trains and evaluates every grid point (reusing points already evaluated with the same
+  definition; a point whose directory holds another definition is an error), then writes
   ``summary.md``, ``summary.csv`` and ``summary.tex`` in ``out``; returns the table rows.
 
   ``select(name, run_spec)``, if given, picks the points this call may train; the others enter
@@ -107,12 +129,15 @@ def run_sweep(spec: dict, out: str, *, progress=True, eval_metrics: bool = False
   points = expand(spec)
   # Build everything first so a bad option fails before any training; the tables ask
   # blx.metrics how each objective is measured.
-  families = [metrics.family_of(runs.build(run_spec)[1]) for _, run_spec in points]
+  built = [runs.build(run_spec) for _, run_spec in points]
+  families = [metrics.family_of(objective) for _, objective, _ in built]
   os.makedirs(out, exist_ok=True)
   rows = []
   for i, (name, run_spec) in enumerate(points):
     directory = os.path.join(out, name)
     eval_path = os.path.join(directory, "eval.json")
+    if os.path.exists(os.path.join(directory, "config.json")):
+      _check_same_point(name, directory, run_spec, built[i][0].desc)
     if os.path.exists(eval_path):
       with open(eval_path) as f:
         result = json.load(f)

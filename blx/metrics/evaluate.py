@@ -52,13 +52,12 @@ def rollout(env: Any, policy: Callable, params: dict, latents: jax.Array, key: j
   reset_key, action_key = jax.random.split(key)
   state = jax.vmap(base.reset)(jax.random.split(reset_key, n))
 
-  def one(state, step_key):
-    action = policy(params, state.obs, z if conditions_policy else None, key=step_key,
-                    deterministic=deterministic)
-    state = jax.vmap(base.step)(state, action)
-    return state, state.obs
+  def act(obs, step_key):
+    return policy(params, obs, z if conditions_policy else None, key=step_key,
+                  deterministic=deterministic)
 
-  _, obs = jax.lax.scan(one, state, jax.random.split(action_key, steps))
+  _, obs = envs_lib.rollout(base, act, state, steps, action_key,
+                            lambda state, action, next_state: next_state.obs)
   obs = jnp.swapaxes(obs, 0, 1)  # [N, T, O]
   return obs.reshape((num_latents, episodes_per_latent) + obs.shape[1:])
 

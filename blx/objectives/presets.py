@@ -82,6 +82,8 @@ def _check_types(who: str, *, numbers: dict | None = None, flags: dict | None = 
   for name, value in (numbers or {}).items():
     if not isinstance(value, (int, float, np.integer, np.floating)) or isinstance(value, bool):
       raise ValueError(f"{who}: {name} must be a number, got {value!r}")
+    if not np.isfinite(value):
+      raise ValueError(f"{who}: {name} must be finite, got {value!r}")
   for name, value in (flags or {}).items():
     if not isinstance(value, bool):
       raise ValueError(f"{who}: {name} must be True or False, got {value!r}")

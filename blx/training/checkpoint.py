@@ -1,65 +1,153 @@
 """Atomic checkpoints of a training-state pytree.
 
-A checkpoint is one ``.npz`` of the pytree's leaves plus a JSON sidecar. Both are written to temporary
-files and moved into place with ``os.replace`` (atomic on POSIX), data first, so a crash while writing
-leaves the previous checkpoint whole.
+A checkpoint is one file, ``checkpoint.npz``: every leaf under its pytree path (``.params.policy...``)
+plus the JSON metadata, written to a temporary file, synced, and moved into place with one
+``os.replace`` (atomic on POSIX). A crash at any point of a write leaves either the previous
+checkpoint or the new one, never a mix; the temporary file it leaves is removed by the next save.
+Restoring into another structure, or from a damaged file, raises a ``CheckpointError`` naming the
+file and what does not match.
+
+Checkpoints of blx before this format (``state.npz`` + ``meta.json``) are still read.
 """
 
 from __future__ import annotations
 
+import glob
 import json
 import os
+import zipfile
 from typing import Any
 
 import jax
 import numpy as np
 
-__all__ = ["save", "restore", "exists", "read_meta"]
+__all__ = ["CheckpointError", "save", "restore", "exists", "read_meta", "path"]
 
-DATA, META = "state.npz", "meta.json"
+FILE = "checkpoint.npz"
+_META_KEY = "__meta__"
+_LEGACY_DATA, _LEGACY_META = "state.npz", "meta.json"
+
+
+class CheckpointError(ValueError):
+  """A checkpoint that cannot be read into this run: damaged, or of another structure."""
+
+
+def path(directory: str) -> str:
+  return os.path.join(directory, FILE)
+
+
+def _legacy(directory: str) -> bool:
+  return (os.path.exists(os.path.join(directory, _LEGACY_META))
+          and os.path.exists(os.path.join(directory, _LEGACY_DATA)))
 
 
 def exists(directory: str) -> bool:
-  return os.path.exists(os.path.join(directory, META)) and os.path.exists(
-      os.path.join(directory, DATA))
+  return os.path.exists(path(directory)) or _legacy(directory)
+
+
+def _clean_temporaries(directory: str) -> None:
+  for stale in glob.glob(os.path.join(directory, f".{FILE}.*.tmp")):
+    try:
+      os.remove(stale)
+    except OSError:
+      pass
+
+
+def _keyed_leaves(tree: Any) -> list[tuple[str, Any]]:
+  return [(jax.tree_util.keystr(p), x) for p, x in jax.tree_util.tree_flatten_with_path(tree)[0]]
 
 
 def save(directory: str, tree: Any, meta: dict) -> None:
-  """Writes ``tree``'s leaves and ``meta`` (JSON-able) atomically into ``directory``."""
+  """Writes ``tree``'s leaves (keyed by pytree path) and ``meta`` (JSON-able) as one file, atomically.
+  """
   os.makedirs(directory, exist_ok=True)
-  leaves = [np.asarray(x) for x in jax.tree.leaves(jax.device_get(tree))]
-  tmp = os.path.join(directory, DATA + ".tmp")
+  _clean_temporaries(directory)
+  arrays = {key: np.asarray(x) for key, x in _keyed_leaves(jax.device_get(tree))}
+  if _META_KEY in arrays or len(arrays) != len(jax.tree.leaves(tree)):
+    raise ValueError("checkpoint.save: the state's pytree paths are not unique")
+  arrays[_META_KEY] = np.frombuffer(json.dumps(meta, sort_keys=True).encode(), np.uint8)
+  tmp = os.path.join(directory, f".{FILE}.{os.getpid()}.tmp")
   with open(tmp, "wb") as f:
-    np.savez(f, **{f"leaf_{i:05d}": x for i, x in enumerate(leaves)})
+    np.savez(f, **arrays)
     f.flush()
     os.fsync(f.fileno())
-  # The meta names the data's leaf count, so a stale pairing is detected on restore.
-  meta = {**meta, "num_leaves": len(leaves)}
-  os.replace(tmp, os.path.join(directory, DATA))
-  tmp_meta = os.path.join(directory, META + ".tmp")
-  with open(tmp_meta, "w") as f:
-    json.dump(meta, f, indent=1, sort_keys=True)
-  os.replace(tmp_meta, os.path.join(directory, META))
+  os.replace(tmp, path(directory))
+  try:  # make the rename itself durable
+    fd = os.open(directory, os.O_RDONLY)
+    try:
+      os.fsync(fd)
+    finally:
+      os.close(fd)
+  except OSError:
+    pass
+
+
+def _open(directory: str) -> tuple[dict[str, np.ndarray], dict]:
+  """All arrays and the metadata of the checkpoint in ``directory``."""
+  if not os.path.exists(path(directory)) and _legacy(directory):
+    return _open_legacy(directory)
+  file = path(directory)
+  try:
+    with np.load(file) as data:
+      arrays = {k: data[k] for k in data.files}
+    meta = json.loads(arrays.pop(_META_KEY).tobytes().decode())
+  except FileNotFoundError:
+    raise CheckpointError(f"no checkpoint at {file}") from None
+  except (zipfile.BadZipFile, OSError, EOFError, KeyError, ValueError) as e:
+    raise CheckpointError(f"checkpoint {file} is damaged and cannot be read ({e}); delete it to "
+                          "start over") from None
+  return arrays, meta
+
+
+def _open_legacy(directory: str) -> tuple[dict[str, np.ndarray], dict]:
+  data_file = os.path.join(directory, _LEGACY_DATA)
+  meta_file = os.path.join(directory, _LEGACY_META)
+  try:
+    with open(meta_file) as f:
+      meta = json.load(f)
+    with np.load(data_file) as data:
+      arrays = {k: data[k] for k in data.files}
+  except (zipfile.BadZipFile, OSError, EOFError, ValueError) as e:
+    raise CheckpointError(f"checkpoint {data_file} / {meta_file} is damaged and cannot be read "
+                          f"({e})") from None
+  if meta.get("num_leaves") != len(arrays):
+    raise CheckpointError(f"checkpoint {data_file} holds {len(arrays)} arrays but {meta_file} "
+                          f"says {meta.get('num_leaves')}: the two files are from different saves")
+  return arrays, meta
 
 
 def read_meta(directory: str) -> dict:
-  with open(os.path.join(directory, META)) as f:
-    return json.load(f)
+  return _open(directory)[1]
 
 
 def restore(directory: str, like: Any) -> tuple[Any, dict]:
-  """Loads a checkpoint into the structure of ``like`` (a pytree of arrays or shape structs)."""
-  meta = read_meta(directory)
-  leaves_like, treedef = jax.tree.flatten(like)
-  with np.load(os.path.join(directory, DATA)) as data:
-    leaves = [data[f"leaf_{i:05d}"] for i in range(len(data.files))]
-  if len(leaves) != len(leaves_like) or meta.get("num_leaves") != len(leaves):
-    raise ValueError(f"checkpoint in {directory} holds {len(leaves)} arrays but this run's state "
-                     f"has {len(leaves_like)}: it was written by a different env, objective or "
-                     "config")
-  for i, (x, ref) in enumerate(zip(leaves, leaves_like)):
+  """Loads a checkpoint into the structure of ``like`` (a pytree of arrays or shape structs).
+
+  Reading never deletes anything: a run may be evaluated while it trains and writes."""
+  arrays, meta = _open(directory)
+  file = path(directory)
+  keyed, treedef = jax.tree_util.tree_flatten_with_path(like)
+  keys = [jax.tree_util.keystr(p) for p, _ in keyed]
+  if not os.path.exists(file):  # legacy: positional leaves
+    file = os.path.join(directory, _LEGACY_DATA)
+    if len(arrays) != len(keys):
+      raise CheckpointError(f"checkpoint {file} holds {len(arrays)} arrays but this run's state "
+                            f"has {len(keys)}: it was written by a different env, objective or "
+                            "config")
+    arrays = {key: arrays[f"leaf_{i:05d}"] for i, key in enumerate(keys)}
+  missing = [k for k in keys if k not in arrays]
+  extra = [k for k in arrays if k not in set(keys)]
+  if missing or extra:
+    raise CheckpointError(
+        f"checkpoint {file} has another structure than this run's state (written by a different "
+        f"env, objective or config): missing {missing[:3]}{' ...' if len(missing) > 3 else ''}, "
+        f"unexpected {extra[:3]}{' ...' if len(extra) > 3 else ''}")
+  leaves = []
+  for key, (_, ref) in zip(keys, keyed):
+    x = arrays[key]
     if x.shape != tuple(ref.shape) or x.dtype != ref.dtype:
-      raise ValueError(f"checkpoint in {directory}: array {i} is {x.dtype}{list(x.shape)} but this "
-                       f"run expects {ref.dtype}{list(ref.shape)}; it was written by a different "
-                       "env, objective or config")
-  return jax.tree.unflatten(treedef, [jax.numpy.asarray(x) for x in leaves]), meta
+      raise CheckpointError(f"checkpoint {file}: {key} is {x.dtype}{list(x.shape)} but this run "
+                            f"expects {ref.dtype}{list(ref.shape)}; it was written by a different "
+                            "env, objective or config")
+    leaves.append(jax.numpy.asarray(x))
+  return jax.tree.unflatten(treedef, leaves), meta

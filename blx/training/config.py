@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+import math
 from typing import Any
 
 __all__ = ["PPOConfig", "ppo_defaults"]
@@ -62,7 +63,13 @@ class PPOConfig:
                  "reward_scaling"):
       if not real(getattr(self, name)):
         raise ValueError(f"PPOConfig.{name} must be a number, got {getattr(self, name)!r}")
-    if not (self.max_grad_norm is None or (real(self.max_grad_norm) and self.max_grad_norm > 0)):
+      if not math.isfinite(getattr(self, name)):
+        raise ValueError(f"PPOConfig.{name} must be finite, got {getattr(self, name)!r}")
+    if self.entropy_cost < 0 or self.reward_scaling <= 0:
+      raise ValueError(f"PPOConfig: entropy_cost must be >= 0 and reward_scaling > 0, got "
+                       f"{self.entropy_cost!r} and {self.reward_scaling!r}")
+    if not (self.max_grad_norm is None or (real(self.max_grad_norm) and self.max_grad_norm > 0
+                                           and math.isfinite(self.max_grad_norm))):
       raise ValueError(f"PPOConfig.max_grad_norm must be None or a positive number, got "
                        f"{self.max_grad_norm!r}")
     for name in ("normalize_observations", "normalize_advantage", "normalize_latent"):

@@ -158,6 +158,10 @@ def _check_finite(metrics: dict, first_iteration: int, seeds, checkpoint_dir) ->
   if bad.any():
     seed_idx, it = min(np.argwhere(bad), key=lambda x: (x[1], x[0]))
     which = [q for q in quantities if flags[q][seed_idx, it]]
-    kept = (f"; the last good checkpoint in {checkpoint_dir} is kept" if checkpoint_dir else "")
+    kept = ""
+    if checkpoint_dir:
+      kept = (f"; the last good checkpoint in {checkpoint_dir} is kept"
+              if checkpoint.exists(checkpoint_dir) else
+              f"; no checkpoint had been written to {checkpoint_dir} yet")
     raise NonFiniteError(f"non-finite {' and '.join(which)} at iteration "
                          f"{first_iteration + int(it)} (seed {seeds[int(seed_idx)]}){kept}")

@@ -26,8 +26,9 @@ from blx.objectives.base import Objective, Transition
 from blx.training import losses, networks
 from blx.training.config import PPOConfig
 
-__all__ = ["Params", "PolicyParams", "TrainState", "Trainer", "make_trainer", "make_train",
-           "make_policy", "network_input", "policy_params"]
+__all__ = ["Params", "PolicyParams", "TrainState", "Trainer", "Learner", "make_learner",
+           "make_trainer", "make_train", "make_policy", "network_input", "policy_params", "env_step",
+           "collect", "ppo_loss", "sgd_step", "update", "evaluate"]
 
 
 @struct.dataclass
@@ -162,8 +163,209 @@ def make_policy(policy_net: networks.MLP, normalize_observations: bool,
   return policy
 
 
+class Learner(NamedTuple):
+  """What one run's pieces share: the networks, the optimiser, the objective and the config.
+
+  Every piece below (``env_step``, ``collect``, ``ppo_loss``, ``sgd_step``, ``update``,
+  ``evaluate``) is a module-level function of a ``Learner`` and its data, so each can be called and
+  tested on its own; ``make_trainer`` binds them into a ``Trainer``.
+  """
+
+  policy_net: networks.MLP
+  value_net: networks.MLP
+  optimizer: optax.GradientTransformation
+  objective: Objective
+  config: PPOConfig
+  stats_size: int         # width of the running normaliser: obs, plus z when it is normalised too
+
+  @property
+  def latent_in_stats(self) -> bool:
+    c, o = self.config, self.objective
+    return o.conditions_policy and c.normalize_latent and o.latent_size > 0
+
+  def policy_input(self, stats: networks.RunningStats, obs: jax.Array, z: jax.Array) -> jax.Array:
+    """The policy's and value's input for ``obs`` and the env's latent ``z``."""
+    return network_input(stats, obs, z if self.objective.conditions_policy else None,
+                         normalize_observations=self.config.normalize_observations,
+                         normalize_latent=self.config.normalize_latent)
+
+
+def make_learner(obs_size: int, action_size: int, objective: Objective,
+                 config: PPOConfig) -> Learner:
+  c = config
+  optimizer = optax.chain(
+      optax.clip_by_global_norm(c.max_grad_norm) if c.max_grad_norm else optax.identity(),
+      optax.adam(c.learning_rate))
+  learner = Learner(policy_net=networks.MLP((*c.policy_hidden, 2 * action_size)),
+                    value_net=networks.MLP((*c.value_hidden, 1)), optimizer=optimizer,
+                    objective=objective, config=c, stats_size=obs_size)
+  if learner.latent_in_stats:
+    learner = learner._replace(stats_size=obs_size + objective.latent_size)
+  return learner
+
+
+def env_step(learner: Learner, env: Any, params: Params, stats: networks.RunningStats,
+             z: jax.Array, env_state: State, key: jax.Array) -> tuple[State, Rollout]:
+  """One step of every env ``[N]``: sample actions, step the physics, score with the objective."""
+  objective = learner.objective
+  with jax.named_scope("policy"):
+    logits = learner.policy_net.apply(params.policy, learner.policy_input(stats, env_state.obs, z))
+    raw = networks.sample_raw_action(logits, key)
+    action = jnp.tanh(raw)
+  with jax.named_scope("physics"):
+    next_state = jax.vmap(env.step)(env_state, action)
+  next_obs = next_state.pre_reset_obs
+  transition = Transition(env_state.obs, action, next_obs, next_state.reward, z)
+  with jax.named_scope("objective"):
+    reward = jax.vmap(objective.reward, (None, 0))(
+        jax.lax.stop_gradient(params.objective), transition)
+  step = Rollout(env_state.obs, raw, action, networks.log_prob_raw(logits, raw), next_obs, reward,
+                 next_state.reward, next_state.done, next_state.truncation, z)
+  return next_state, step
+
+
+def collect(learner: Learner, env: Any, state: TrainState,
+            shard: Callable[[Any], Any] = lambda tree: tree) -> tuple[TrainState, Rollout]:
+  """``num_unrolls`` x ``unroll_length`` steps of every env of the auto-resetting ``env``:
+  sequences ``[U * N, T, ...]``."""
+  c = learner.config
+  key, rollout_key = jax.random.split(state.key)
+  num_envs = state.z.shape[0]
+
+  def unroll(env_state, key):
+    def one(env_state, key):
+      next_state, step = env_step(learner, env, state.params, state.normalizer, state.z,
+                                  env_state, key)
+      return shard(next_state), step
+    return jax.lax.scan(one, env_state, jax.random.split(key, c.unroll_length))
+
+  env_state, data = jax.lax.scan(unroll, state.env_state,
+                                 jax.random.split(rollout_key, c.num_unrolls))
+  # [U, T, N, ...] -> [U * N, T, ...]: sequences of unroll_length steps.
+  data = jax.tree.map(lambda x: jnp.swapaxes(x, 1, 2).reshape(
+      (c.num_unrolls * num_envs, c.unroll_length) + x.shape[3:]), data)
+  return state.replace(env_state=env_state, key=key), data
+
+
+def ppo_loss(learner: Learner, params: Params, batch: Rollout, stats: networks.RunningStats,
+             key: jax.Array) -> tuple[jax.Array, dict]:
+  """PPO's loss plus the objective's on sequences ``[B, T]``: ``(scalar, metrics)``.
+
+  Advantages come from one value pass over s_0 .. s_{T-1} and the true s'_{T-1}
+  (``losses.sequence_advantages``): V(s'_t) = V(s_{t+1}) inside a sequence except after an
+  auto-reset; terminations do not bootstrap, a truncation inside a sequence gets delta 0.
+  """
+  c, objective = learner.config, learner.objective
+  entropy_key, obj_key = jax.random.split(key)
+  x = learner.policy_input(stats, batch.obs, batch.z)
+  with jax.named_scope("policy"):
+    logits = learner.policy_net.apply(params.policy, x)
+  with jax.named_scope("value"):
+    x_last = learner.policy_input(stats, batch.next_obs[:, -1:], batch.z[:, -1:])
+    values = learner.value_net.apply(params.value, jnp.concatenate([x, x_last], axis=1))[..., 0]
+  value = values[:, :-1]
+  advantage, target = losses.sequence_advantages(
+      batch.reward * c.reward_scaling, jax.lax.stop_gradient(values), batch.done,
+      batch.truncation, discount=c.discounting, lam=c.gae_lambda)
+  if c.normalize_advantage:
+    advantage = (advantage - advantage.mean()) / (advantage.std() + 1e-8)
+  log_prob = networks.log_prob_raw(logits, batch.raw_action)
+  policy_loss = losses.clipped_surrogate(log_prob, batch.log_prob, advantage,
+                                         epsilon=c.clipping_epsilon)
+  value_loss = 0.25 * jnp.mean((value - target) ** 2)
+  entropy = jnp.mean(networks.entropy(logits, entropy_key))
+  entropy_loss = -c.entropy_cost * entropy
+  with jax.named_scope("objective"):
+    objective_loss, objective_metrics = objective.loss(params.objective, _transitions(batch),
+                                                       obj_key)
+  total = policy_loss + value_loss + entropy_loss + objective_loss
+  metrics = {"loss/total": total, "loss/policy": policy_loss, "loss/value": value_loss,
+             "loss/entropy": entropy_loss, "loss/objective": objective_loss,
+             "policy/entropy": entropy, **objective_metrics}
+  return total, metrics
+
+
+def sgd_step(learner: Learner, carry, inputs):
+  """One Adam step on ``ppo_loss`` of a minibatch; ``carry = (params, opt_state, stats)``."""
+  params, opt_state, stats = carry
+  batch, key = inputs
+  grads, metrics = jax.grad(lambda p: ppo_loss(learner, p, batch, stats, key), has_aux=True)(params)
+  updates, opt_state = learner.optimizer.update(grads, opt_state, params)
+  params = optax.apply_updates(params, updates)
+  post_update = learner.objective.post_update
+  if post_update is not None:  # state outside the gradient, e.g. spectral-norm vectors
+    params = params.replace(objective=post_update(params.objective, _transitions(batch)))
+  metrics["grad_norm"] = optax.global_norm(grads)
+  return (params, opt_state, stats), metrics
+
+
+def update(learner: Learner, state: TrainState, data: Rollout) -> tuple[TrainState, dict]:
+  """Normaliser update, then ``num_updates_per_batch`` epochs of minibatch SGD on ``data``."""
+  c = learner.config
+  key, sgd_key = jax.random.split(state.key)
+  num_sequences = data.obs.shape[0]
+  normalizer = state.normalizer
+  if c.normalize_observations:
+    seen = jnp.concatenate([data.obs, data.z], -1) if learner.latent_in_stats else data.obs
+    normalizer = networks.update_stats(normalizer, seen.reshape(-1, learner.stats_size))
+
+  def epoch(carry, key):
+    perm_key, step_key = jax.random.split(key)
+    perm = jax.random.permutation(perm_key, num_sequences)
+    batches = jax.tree.map(lambda x: x[perm].reshape(
+        (c.num_minibatches, c.batch_size) + x.shape[1:]), data)
+    keys = jax.random.split(step_key, c.num_minibatches)
+    return jax.lax.scan(lambda carry, inputs: sgd_step(learner, carry, inputs), carry,
+                        (batches, keys))
+
+  (params, opt_state, _), metrics = jax.lax.scan(
+      epoch, (state.params, state.opt_state, normalizer),
+      jax.random.split(sgd_key, c.num_updates_per_batch))
+  metrics = jax.tree.map(jnp.mean, metrics)
+  metrics.update({
+      "train/reward": data.reward.mean(),
+      "train/env_reward": data.env_reward.mean(),
+      "train/episode_end_rate": data.done.mean(),
+      "nonfinite/loss": ~jnp.isfinite(metrics["loss/total"]),
+      "nonfinite/params": ~jnp.all(jnp.stack([jnp.isfinite(x).all()
+                                              for x in jax.tree.leaves(params)])),
+      "nonfinite/observation": ~(jnp.isfinite(data.obs).all() & jnp.isfinite(data.next_obs).all()),
+  })
+  state = state.replace(params=params, opt_state=opt_state, normalizer=normalizer, key=key,
+                        env_steps=state.env_steps + c.env_steps_per_iteration,
+                        iteration=state.iteration + 1)
+  return state, metrics
+
+
+def evaluate(learner: Learner, env: Any, steps: int, params: PolicyParams, key: jax.Array) -> dict:
+  """Episode totals of ``num_eval_envs`` deterministic episodes of ``env`` (no auto-reset), at most
+  ``steps`` steps each: the objective's reward, the env's reward and its per-term metrics."""
+  c, objective = learner.config, learner.objective
+  policy = make_policy(learner.policy_net, c.normalize_observations, c.normalize_latent)
+  reset_key, z_key = jax.random.split(key)
+  env_state = jax.vmap(env.reset)(jax.random.split(reset_key, c.num_eval_envs))
+  z = jax.vmap(objective.sample_latent)(jax.random.split(z_key, c.num_eval_envs))
+
+  def act(obs, _):
+    return policy(params, obs, z if objective.conditions_policy else None)
+
+  def record(state, action, next_state):
+    transition = Transition(state.obs, action, next_state.obs, next_state.reward, z)
+    reward = jax.vmap(objective.reward, (None, 0))(params.objective, transition)
+    step = {"eval/episode_reward": reward, "eval/episode_env_reward": next_state.reward,
+            "eval/episode_length": jnp.ones_like(reward) * c.action_repeat,
+            **{f"eval/episode_{k}": v for k, v in next_state.metrics.items()}}
+    return step, next_state.done
+
+  _, (per_step, done) = envs_lib.rollout(env, act, env_state, steps, jax.random.fold_in(key, 2),
+                                         record)
+  alive = envs_lib.alive_before(done)  # a step counts until its episode has ended
+  return jax.tree.map(lambda x: jnp.mean(jnp.sum(alive * x, axis=0)), per_step)
+
+
 def make_trainer(env: Any, objective: Objective, config: PPOConfig) -> Trainer:
-  """Builds the pure training functions for ``env`` (any wrappers are replaced by the config's)."""
+  """Binds the pieces above into the pure training functions for ``env`` (any wrappers are replaced
+  by the config's)."""
   if not isinstance(config, PPOConfig):
     raise ValueError(f"config must be a PPOConfig, got {type(config).__name__}")
   if not isinstance(objective, Objective):
@@ -175,186 +377,45 @@ def make_trainer(env: Any, objective: Objective, config: PPOConfig) -> Trainer:
   eval_env = envs_lib.episode(repeated, c.eval_episode_length or c.episode_length)
   eval_steps = -(-(c.eval_episode_length or c.episode_length) // c.action_repeat)
 
-  obs_size, action_size = base.observation_size, base.action_size
-  z_size = objective.latent_size
-  policy_in = obs_size + (z_size if objective.conditions_policy else 0)
-  policy_net = networks.MLP((*c.policy_hidden, 2 * action_size))
-  value_net = networks.MLP((*c.value_hidden, 1))
-  optimizer = optax.chain(
-      optax.clip_by_global_norm(c.max_grad_norm) if c.max_grad_norm else optax.identity(),
-      optax.adam(c.learning_rate))
+  obs_size = base.observation_size
+  learner = make_learner(obs_size, base.action_size, objective, c)
+  policy_in = obs_size + (objective.latent_size if objective.conditions_policy else 0)
   shard = _data_sharding(c.num_envs)
 
   iterations = -(-c.num_timesteps // c.env_steps_per_iteration)
   num_chunks = min(c.num_evals, iterations)
   iterations_per_chunk = -(-iterations // num_chunks)
 
-  latent_in_stats = objective.conditions_policy and c.normalize_latent and z_size > 0
-  stats_size = obs_size + (z_size if latent_in_stats else 0)
-
-  def policy_input(stats, obs, z):
-    return network_input(stats, obs, z if objective.conditions_policy else None,
-                         normalize_observations=c.normalize_observations,
-                         normalize_latent=c.normalize_latent)
-
   def init(key: jax.Array) -> TrainState:
     policy_key, value_key, obj_key, env_key, z_key, key = jax.random.split(key, 6)
     params = Params(
-        policy=policy_net.init(policy_key, jnp.zeros((policy_in,))),
-        value=value_net.init(value_key, jnp.zeros((policy_in,))),
+        policy=learner.policy_net.init(policy_key, jnp.zeros((policy_in,))),
+        value=learner.value_net.init(value_key, jnp.zeros((policy_in,))),
         objective=objective.init(obj_key, obs_size))
     env_state = jax.vmap(train_env.reset)(jax.random.split(env_key, c.num_envs))
     z = jax.vmap(objective.sample_latent)(jax.random.split(z_key, c.num_envs))
-    return TrainState(params=params, opt_state=optimizer.init(params),
-                      normalizer=networks.init_stats(stats_size), env_state=shard(env_state),
-                      z=shard(z), key=key, env_steps=jnp.zeros((), jnp.float32),
-                      iteration=jnp.zeros((), jnp.int32))
+    return TrainState(params=params, opt_state=learner.optimizer.init(params),
+                      normalizer=networks.init_stats(learner.stats_size),
+                      env_state=shard(env_state), z=shard(z), key=key,
+                      env_steps=jnp.zeros((), jnp.float32), iteration=jnp.zeros((), jnp.int32))
 
-  def env_step(params: Params, stats, z, env_state: State, key: jax.Array):
-    with jax.named_scope("policy"):
-      logits = policy_net.apply(params.policy, policy_input(stats, env_state.obs, z))
-      raw = networks.sample_raw_action(logits, key)
-      action = jnp.tanh(raw)
-    with jax.named_scope("physics"):
-      next_state = jax.vmap(train_env.step)(env_state, action)
-    next_obs = next_state.pre_reset_obs
-    transition = Transition(env_state.obs, action, next_obs, next_state.reward, z)
-    with jax.named_scope("objective"):
-      reward = jax.vmap(objective.reward, (None, 0))(
-          jax.lax.stop_gradient(params.objective), transition)
-    step = Rollout(env_state.obs, raw, action, networks.log_prob_raw(logits, raw), next_obs, reward,
-                   next_state.reward, next_state.done, next_state.truncation, z)
-    return shard(next_state), step
+  def collect_fn(state: TrainState) -> tuple[TrainState, Rollout]:
+    return collect(learner, train_env, state, shard)
 
-  def loss_fn(params: Params, batch: Rollout, stats, key):
-    """PPO loss + objective loss on sequences ``[B, T]``; returns (scalar, metrics)."""
-    entropy_key, obj_key = jax.random.split(key)
-    x = policy_input(stats, batch.obs, batch.z)
-    with jax.named_scope("policy"):
-      logits = policy_net.apply(params.policy, x)
-    with jax.named_scope("value"):
-      # One pass over s_0 .. s_{T-1} and the true s'_{T-1}: V(s'_t) = V(s_{t+1}) inside the
-      # sequence, except after an auto-reset (a done step), where s_{t+1} is the new episode's
-      # first state. Terminations do not bootstrap; a truncation there gets delta 0 (known_t).
-      x_last = policy_input(stats, batch.next_obs[:, -1:], batch.z[:, -1:])
-      values = value_net.apply(params.value, jnp.concatenate([x, x_last], axis=1))[..., 0]
-    value = values[:, :-1]
-    advantage, target = losses.sequence_advantages(
-        batch.reward * c.reward_scaling, jax.lax.stop_gradient(values), batch.done,
-        batch.truncation, discount=c.discounting, lam=c.gae_lambda)
-    if c.normalize_advantage:
-      advantage = (advantage - advantage.mean()) / (advantage.std() + 1e-8)
-    log_prob = networks.log_prob_raw(logits, batch.raw_action)
-    policy_loss = losses.clipped_surrogate(log_prob, batch.log_prob, advantage,
-                                           epsilon=c.clipping_epsilon)
-    value_loss = 0.25 * jnp.mean((value - target) ** 2)
-    entropy = jnp.mean(networks.entropy(logits, entropy_key))
-    entropy_loss = -c.entropy_cost * entropy
-    with jax.named_scope("objective"):
-      objective_loss, objective_metrics = objective.loss(params.objective, _transitions(batch),
-                                                         obj_key)
-    total = policy_loss + value_loss + entropy_loss + objective_loss
-    metrics = {"loss/total": total, "loss/policy": policy_loss, "loss/value": value_loss,
-               "loss/entropy": entropy_loss, "loss/objective": objective_loss,
-               "policy/entropy": entropy, **objective_metrics}
-    return total, metrics
-
-  def sgd_step(carry, inputs):
-    params, opt_state, stats = carry
-    batch, key = inputs
-    grads, metrics = jax.grad(loss_fn, has_aux=True)(params, batch, stats, key)
-    updates, opt_state = optimizer.update(grads, opt_state, params)
-    params = optax.apply_updates(params, updates)
-    if objective.post_update is not None:  # state outside the gradient, e.g. spectral-norm vectors
-      params = params.replace(objective=objective.post_update(params.objective,
-                                                              _transitions(batch)))
-    metrics["grad_norm"] = optax.global_norm(grads)
-    return (params, opt_state, stats), metrics
-
-  def collect(state: TrainState) -> tuple[TrainState, Rollout]:
-    """``num_unrolls`` x ``unroll_length`` steps of every env: sequences ``[U * N, T, ...]``."""
-    key, rollout_key = jax.random.split(state.key)
-
-    def unroll(env_state, key):
-      def one(env_state, key):
-        return env_step(state.params, state.normalizer, state.z, env_state, key)
-      return jax.lax.scan(one, env_state, jax.random.split(key, c.unroll_length))
-
-    env_state, data = jax.lax.scan(unroll, state.env_state,
-                                   jax.random.split(rollout_key, c.num_unrolls))
-    # [U, T, N, ...] -> [U * N, T, ...]: sequences of unroll_length steps.
-    data = jax.tree.map(lambda x: jnp.swapaxes(x, 1, 2).reshape(
-        (c.num_unrolls * c.num_envs, c.unroll_length) + x.shape[3:]), data)
-    return state.replace(env_state=env_state, key=key), data
-
-  def update(state: TrainState, data: Rollout) -> tuple[TrainState, dict]:
-    """Normaliser update, then ``num_updates_per_batch`` epochs of minibatch SGD on ``data``."""
-    key, sgd_key = jax.random.split(state.key)
-    normalizer = state.normalizer
-    if c.normalize_observations:
-      seen = jnp.concatenate([data.obs, data.z], -1) if latent_in_stats else data.obs
-      normalizer = networks.update_stats(normalizer, seen.reshape(-1, stats_size))
-
-    def epoch(carry, key):
-      perm_key, step_key = jax.random.split(key)
-      perm = jax.random.permutation(perm_key, c.num_unrolls * c.num_envs)
-      batches = jax.tree.map(lambda x: x[perm].reshape(
-          (c.num_minibatches, c.batch_size) + x.shape[1:]), data)
-      keys = jax.random.split(step_key, c.num_minibatches)
-      return jax.lax.scan(sgd_step, carry, (batches, keys))
-
-    (params, opt_state, _), metrics = jax.lax.scan(
-        epoch, (state.params, state.opt_state, normalizer),
-        jax.random.split(sgd_key, c.num_updates_per_batch))
-    metrics = jax.tree.map(jnp.mean, metrics)
-    metrics.update({
-        "train/reward": data.reward.mean(),
-        "train/env_reward": data.env_reward.mean(),
-        "train/episode_end_rate": data.done.mean(),
-        "nonfinite/loss": ~jnp.isfinite(metrics["loss/total"]),
-        "nonfinite/params": ~jnp.all(jnp.stack([jnp.isfinite(x).all()
-                                                for x in jax.tree.leaves(params)])),
-        "nonfinite/observation": ~(jnp.isfinite(data.obs).all() & jnp.isfinite(data.next_obs).all()),
-    })
-    state = state.replace(params=params, opt_state=opt_state, normalizer=normalizer, key=key,
-                          env_steps=state.env_steps + c.env_steps_per_iteration,
-                          iteration=state.iteration + 1)
-    return state, metrics
+  def update_fn(state: TrainState, data: Rollout) -> tuple[TrainState, dict]:
+    return update(learner, state, data)
 
   def iteration(state: TrainState, _):
     with jax.named_scope("collect"):
-      state, data = collect(state)
+      state, data = collect_fn(state)
     with jax.named_scope("update"):
-      return update(state, data)
+      return update_fn(state, data)
 
   def chunk(state: TrainState):
     return jax.lax.scan(iteration, state, None, length=iterations_per_chunk)
 
-  policy = make_policy(policy_net, c.normalize_observations, c.normalize_latent)
-
-  def evaluate(params: PolicyParams, key: jax.Array) -> dict:
-    reset_key, z_key = jax.random.split(key)
-    env_state = jax.vmap(eval_env.reset)(jax.random.split(reset_key, c.num_eval_envs))
-    z = jax.vmap(objective.sample_latent)(jax.random.split(z_key, c.num_eval_envs))
-
-    def one(carry, _):
-      env_state, alive, totals = carry
-      action = policy(params, env_state.obs, z if objective.conditions_policy else None)
-      next_state = jax.vmap(eval_env.step)(env_state, action)
-      transition = Transition(env_state.obs, action, next_state.obs, next_state.reward, z)
-      reward = jax.vmap(objective.reward, (None, 0))(params.objective, transition)
-      step = {"eval/episode_reward": reward, "eval/episode_env_reward": next_state.reward,
-              "eval/episode_length": jnp.ones_like(reward) * c.action_repeat,
-              **{f"eval/episode_{k}": v for k, v in next_state.metrics.items()}}
-      totals = jax.tree.map(lambda t, s: t + alive * s, totals, step)
-      return (next_state, alive * (1.0 - next_state.done), totals), None
-
-    zeros = {k: jnp.zeros(c.num_eval_envs) for k in
-             ["eval/episode_reward", "eval/episode_env_reward", "eval/episode_length"]
-             + [f"eval/episode_{k}" for k in env_state.metrics]}
-    (_, _, totals), _ = jax.lax.scan(one, (env_state, jnp.ones(c.num_eval_envs), zeros), None,
-                                     length=eval_steps)
-    return jax.tree.map(jnp.mean, totals)
+  def evaluate_fn(params: PolicyParams, key: jax.Array) -> dict:
+    return evaluate(learner, eval_env, eval_steps, params, key)
 
   def train(key: jax.Array):
     init_key, eval_key = jax.random.split(key)
@@ -363,12 +424,14 @@ def make_trainer(env: Any, objective: Objective, config: PPOConfig) -> Trainer:
     def one_chunk(state, key):
       state, metrics = chunk(state)
       metrics = jax.tree.map(lambda x: x.mean(0) if x.dtype != bool else x.any(0), metrics)
-      return state, {**metrics, **evaluate(policy_params(state), key)}
+      return state, {**metrics, **evaluate_fn(policy_params(state), key)}
 
     return jax.lax.scan(one_chunk, state, jax.random.split(eval_key, num_chunks))
 
-  return Trainer(init=init, chunk=chunk, collect=collect, update=update, evaluate=evaluate, train=train, policy=policy,
-                 num_chunks=num_chunks, iterations_per_chunk=iterations_per_chunk, config=c)
+  policy = make_policy(learner.policy_net, c.normalize_observations, c.normalize_latent)
+  return Trainer(init=init, chunk=chunk, collect=collect_fn, update=update_fn,
+                 evaluate=evaluate_fn, train=train, policy=policy, num_chunks=num_chunks,
+                 iterations_per_chunk=iterations_per_chunk, config=c)
 
 
 def policy_params(state: TrainState) -> PolicyParams:

@@ -50,6 +50,11 @@ def _with(**changes):
      r"'root_goal' cannot be used on an edge"),
     (_with(edges={"agent1__ball": {"extra_observers": [{"observer_type": "root_angle"}]}}),
      r"unknown observer_type 'root_angle'.*root_vec"),
+    (_with(components__ball__pos=(0.0, float("nan"), 0.0)), r"pos: expected 3 finite numbers"),
+    (_with(global_options={"timestep": float("inf")}), r"global_options.timestep: must be a "
+                                                       r"positive number, got inf"),
+    (_with(global_options={"gravity": (0, 0, float("-inf"))}), r"gravity: expected 3 finite"),
+    (_with(global_options={"substeps": 10**12}), r"substeps: must be an int in 1\.\.1000"),
 ])
 def test_bad_desc_raises_naming_the_problem(desc, pattern):
   with pytest.raises(ValueError, match=pattern):

@@ -107,6 +107,14 @@ def test_sweep_writes_one_run_per_point_and_aggregate_tables(tmp_path, capsys):
   md = open(os.path.join(out, "summary.md")).read()
   assert "| objective=gcrl | 2 |" in md and "±" in md
   assert "\\pm" in open(os.path.join(out, "summary.tex")).read()
+  # A changed spec never reuses old results: the point says what changed and is left alone.
+  spec["steps"] = 3200
+  path.write_text(json.dumps(spec))
+  assert cli.main(["sweep", str(path), "--out", out]) == 2
+  err = capsys.readouterr().err
+  assert "sweep point 'objective=gcrl'" in err and "'num_timesteps': 1600" in err, err
+  assert "'num_timesteps': 3200" in err
+  assert os.path.getmtime(os.path.join(out, "objective=gcrl", "eval.json")) == mtime
 
 
 @pytest.mark.parametrize("argv, message", [
@@ -117,11 +125,21 @@ def test_sweep_writes_one_run_per_point_and_aggregate_tables(tmp_path, capsys):
     (["train", "--seeds", "a,b"], "expected comma-separated ints"),
     (["train", "--option", "bogus=1"], "unknown option(s) ['bogus']"),
     (["train", "--config", "learning_rate=abc"], "learning_rate must be a number, got 'abc'"),
+    (["train", "--config", "learning_rate=float('nan')"], "learning_rate must be a number"),
+    (["train", "--config", "reward_scaling=0"], "reward_scaling > 0"),
+    (["train", "--config", "entropy_cost=-1.0"], "entropy_cost must be >= 0"),
+    (["train", "--option", "logits_clip=1e999"], "logits_clip must be finite, got inf"),
+    (["train", "--option", "env_reward_multiplier=1e999"], "must be finite"),
     (["train", "--option", "spectral_norm=maybe"], "spectral_norm must be True or False"),
     (["train", "--objective", "gcrl", "--option", "obs_scale=big"], "obs_scale must be a number"),
     (["train", "--num-skills", "1"], "num_skills must be an int >= 2, got 1"),
     (["eval", "/nonexistent/run"], "no run directory at"),
     (["envs", "nope"], "unknown env 'nope'"),
+    (["render", "anyrun", "--width", "0"], "--width 0: valid sizes are 16..4096 pixels"),
+    (["render", "anyrun", "--height", "100000"], "--height 100000: valid sizes are 16..4096"),
+    (["render", "anyrun", "--steps", "0"], "--steps 0: give at least 1 env step"),
+    (["render", "anyrun", "--out", "x.gif"], "blx render writes MP4 video; give a path ending"),
+    (["render", "anyrun", "--skills", "0,x"], "expected comma-separated skill numbers"),
 ])
 def test_bad_input_is_one_line_and_exit_status_2(argv, message, capsys):
   assert cli.main(argv) == 2
@@ -142,6 +160,33 @@ def test_incompatible_or_existing_run_directories(trained, tmp_path, capsys):
   assert "run format 0" in capsys.readouterr().err
   assert cli.main(["eval", str(tmp_path)]) == 2
   assert "not a blx run directory" in capsys.readouterr().err
+
+
+def test_resume_reads_the_run_and_never_writes_on_a_contradiction(trained, tmp_path, capsys):
+  config = os.path.join(trained, "config.json")
+  before = open(config, "rb").read()
+  # Flags that contradict the run are named; the run directory is not touched.
+  assert cli.main(["train", "--resume", trained, "--objective", "gail"]) == 2
+  assert ("--objective 'gail' contradicts the run, where it is 'diayn'"
+          in capsys.readouterr().err)
+  assert cli.main(["train", "--resume", trained, "--config", "num_envs=32"]) == 2
+  assert "--config num_envs=32 contradicts the run, where it is 16" in capsys.readouterr().err
+  assert open(config, "rb").read() == before
+  # Nothing to resume, or no directory named.
+  assert cli.main(["train", "--resume", str(tmp_path / "nope")]) == 2
+  assert "no run directory at" in capsys.readouterr().err
+  assert cli.main(["train", "--resume"]) == 2
+  assert "name the run directory" in capsys.readouterr().err
+  # A directory with a checkpoint but no config.json is not overwritten by a new run.
+  orphan = tmp_path / "orphan"
+  (orphan / "checkpoint").mkdir(parents=True)
+  assert cli.main(["train", "--out", str(orphan), *TINY]) == 2
+  assert "holds a checkpoint but no config.json" in capsys.readouterr().err
+  # No flags: the run continues from its own config.json (here it had finished: it is evaluated
+  # again) and config.json stays as it was; agreeing flags are accepted.
+  assert cli.main(["train", "--resume", trained, "--seeds", "0,1"]) == 0
+  assert open(config, "rb").read() == before
+  assert os.path.exists(os.path.join(trained, "eval.json"))
 
 
 def test_envs_describes_an_env(capsys):

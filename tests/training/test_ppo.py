@@ -96,11 +96,12 @@ def test_objective_hook_replaces_the_reward_and_trains_its_params():
 def test_non_finite_loss_stops_training_and_keeps_the_last_checkpoint(tmp_path):
   directory = str(tmp_path / "ckpt")
   checkpoint.save(directory, {"x": np.ones(3)}, {"chunk": 1})  # an earlier good checkpoint
-  before = open(os.path.join(directory, checkpoint.DATA), "rb").read()
-  with pytest.raises(training.NonFiniteError, match=r"non-finite loss at iteration 0 \(seed 0\)"):
+  before = open(checkpoint.path(directory), "rb").read()
+  with pytest.raises(training.NonFiniteError, match=r"non-finite loss at iteration 0 \(seed 0\); "
+                                                    r"the last good checkpoint in .* is kept"):
     training.train(envs.create("point"), reach_latent(poison=True), SMALL, progress=False,
                    checkpoint_dir=directory)
-  assert open(os.path.join(directory, checkpoint.DATA), "rb").read() == before
+  assert open(checkpoint.path(directory), "rb").read() == before
 
 
 def _run(*args, env=None):
@@ -156,7 +157,63 @@ def test_non_finite_report_names_the_first_bad_iteration_and_everything_bad_ther
   flags["loss"][1, 2] = True
   with pytest.raises(training.NonFiniteError,
                      match=r"non-finite observation and loss and params at iteration 12 \(seed 8\); "
-                           r"the last good checkpoint in ckpt is kept"):
-    _check_finite(metrics, 10, [7, 8], "ckpt")
+                           r"no checkpoint had been written to ckpt yet"):
+    _check_finite(metrics, 10, [7, 8], "ckpt")   # "ckpt" holds no checkpoint
   flags["loss"][1, 2] = flags["observation"][1, 2] = flags["params"][1, 2] = flags["loss"][1, 3] = False
   _check_finite(metrics, 10, [7, 8], None)  # all finite: no error
+
+
+def test_ppo_loss_bootstraps_from_the_true_next_states():
+  """``ppo_loss`` against GAE computed from V at every true next state s'_t (the sequence has an
+  auto-reset after a termination and one after a truncation, where s_{t+1} is not s'_t)."""
+  import dataclasses
+
+  from blx.training import losses, networks, ppo
+  config = dataclasses.replace(SMALL, entropy_cost=0.0, reward_scaling=2.0, discounting=0.9,
+                               gae_lambda=0.8, normalize_advantage=False)
+  learner = ppo.make_learner(3, 2, task(), config)
+  keys = jax.random.split(jax.random.PRNGKey(0), 8)
+  params = ppo.Params(policy=learner.policy_net.init(keys[0], jnp.zeros(3)),
+                      value=learner.value_net.init(keys[1], jnp.zeros(3)), objective=None)
+  stats = networks.init_stats(3)
+  T = 5
+  states = jax.random.normal(keys[2], (1, T + 1, 3))
+  obs, next_obs = states[:, :-1], states[:, 1:]
+  # Step 1 terminates and step 3 is truncated: the next entries (2, 4) are fresh episodes, and the
+  # true next states s'_1, s'_3 are other states.
+  true_next = jax.random.normal(keys[3], (1, T, 3))
+  next_obs = next_obs.at[:, 1].set(true_next[:, 1]).at[:, 3].set(true_next[:, 3])
+  done = jnp.zeros((1, T)).at[:, 1].set(1.0).at[:, 3].set(1.0)
+  truncation = jnp.zeros((1, T)).at[:, 3].set(1.0)
+  reward = jax.random.normal(keys[4], (1, T))
+  logits = learner.policy_net.apply(params.policy, learner.policy_input(stats, obs, None))
+  raw = networks.sample_raw_action(logits, keys[5])
+  batch = ppo.Rollout(obs=obs, raw_action=raw, action=jnp.tanh(raw),
+                      log_prob=networks.log_prob_raw(logits, raw), next_obs=next_obs, reward=reward,
+                      env_reward=reward, done=done, truncation=truncation, z=jnp.zeros((1, T, 0)))
+  total, metrics = ppo.ppo_loss(learner, params, batch, stats, keys[6])
+
+  value = lambda x: learner.value_net.apply(params.value,
+                                            learner.policy_input(stats, x, None))[..., 0]
+  # Where s'_t is known (every step but the truncation inside the sequence) delta uses V(s'_t).
+  advantage, _ = losses.gae(2.0 * reward[0], value(obs[0]), value(next_obs[0]),
+                            done[0] * (1 - truncation[0]), done[0], discount=0.9, lam=0.8,
+                            known_t=1.0 - truncation[0])
+  # The policy is the one that acted (ratio 1): surrogate = -mean(A); value targets A + V.
+  np.testing.assert_allclose(metrics["loss/policy"], -advantage.mean(), rtol=1e-5, atol=1e-6)
+  np.testing.assert_allclose(metrics["loss/value"], 0.25 * jnp.mean(advantage**2), rtol=1e-5)
+  np.testing.assert_allclose(total, metrics["loss/policy"] + metrics["loss/value"], rtol=1e-5)
+  assert advantage[3] == 0.0 and advantage[1] != 0.0   # the truncation inside teaches nothing
+
+
+@pytest.mark.parametrize("field, value, message", [
+    ("learning_rate", float("nan"), "learning_rate must be finite, got nan"),
+    ("clipping_epsilon", float("inf"), "clipping_epsilon must be finite, got inf"),
+    ("reward_scaling", 0.0, "reward_scaling > 0"),
+    ("entropy_cost", -0.1, "entropy_cost must be >= 0"),
+    ("max_grad_norm", float("inf"), "max_grad_norm must be None or a positive number"),
+])
+def test_ppo_config_rejects_non_finite_and_out_of_range_numbers(field, value, message):
+  import dataclasses
+  with pytest.raises(ValueError, match=message):
+    dataclasses.replace(SMALL, **{field: value})

@@ -1,0 +1,99 @@
+"""Checkpoints: one atomic file keyed by pytree path; a crash at any point of a write leaves the old
+or the new checkpoint whole; damaged or foreign checkpoints are named errors."""
+
+from __future__ import annotations
+
+import glob
+import json
+import os
+
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+from blx.training import checkpoint
+from blx.training.checkpoint import CheckpointError
+
+OLD = {"policy": {"w": np.arange(3.0, dtype=np.float32)}, "step": np.int32(1)}
+NEW = {"policy": {"w": np.arange(3.0, dtype=np.float32) + 10}, "step": np.int32(2)}
+
+
+def _temporaries(directory):
+  return glob.glob(os.path.join(directory, ".*.tmp"))
+
+
+def _restored(directory):
+  tree, meta = checkpoint.restore(directory, OLD)
+  return float(tree["policy"]["w"][0]), int(tree["step"]), meta["chunk"]
+
+
+def test_round_trip_keeps_values_and_metadata(tmp_path):
+  d = str(tmp_path)
+  checkpoint.save(d, NEW, {"chunk": 2, "history": [{"a": 1.0}]})
+  tree, meta = checkpoint.restore(d, OLD)
+  np.testing.assert_array_equal(tree["policy"]["w"], NEW["policy"]["w"])
+  assert meta == {"chunk": 2, "history": [{"a": 1.0}]}
+  assert os.listdir(d) == [checkpoint.FILE]   # one file, nothing else
+
+
+@pytest.mark.parametrize("crash_at", ["writing", "before_rename", "after_rename"])
+def test_a_crash_anywhere_in_a_write_leaves_one_whole_checkpoint(tmp_path, monkeypatch, crash_at):
+  d = str(tmp_path)
+  checkpoint.save(d, OLD, {"chunk": 1})
+
+  class Crash(Exception):
+    pass
+
+  real_savez, real_replace = np.savez, os.replace
+
+  def savez(f, **arrays):
+    if crash_at == "writing":   # half the file is on disk when the process dies
+      f.write(b"PK\x03\x04 partial")
+      raise Crash
+    real_savez(f, **arrays)
+
+  def replace(src, dst):
+    if crash_at == "before_rename":
+      raise Crash
+    real_replace(src, dst)
+    if crash_at == "after_rename":
+      raise Crash
+
+  monkeypatch.setattr(checkpoint.np, "savez", savez)
+  monkeypatch.setattr(checkpoint.os, "replace", replace)
+  with pytest.raises(Crash):
+    checkpoint.save(d, NEW, {"chunk": 2})
+  monkeypatch.undo()
+  expected = (10.0, 2, 2) if crash_at == "after_rename" else (0.0, 1, 1)
+  assert _restored(d) == expected              # old or new, never a mix
+  checkpoint.save(d, NEW, {"chunk": 2})        # the next save removes the dead writer's temporary
+  assert _restored(d) == (10.0, 2, 2) and not _temporaries(d)
+
+
+def test_damaged_and_foreign_checkpoints_are_named_errors(tmp_path):
+  d = str(tmp_path)
+  checkpoint.save(d, OLD, {"chunk": 1})
+  other = {"policy": {"w": np.zeros(3, np.float32), "b": np.zeros(1, np.float32)},
+           "step": np.int32(0)}
+  with pytest.raises(CheckpointError, match=r"missing \[\"\['policy'\]\['b'\]\"\]"):
+    checkpoint.restore(d, other)
+  wrong_shape = {"policy": {"w": jnp.zeros(4, jnp.float32)}, "step": np.int32(0)}
+  with pytest.raises(CheckpointError, match=r"\['policy'\]\['w'\] is float32\[3\] but this run "
+                                            r"expects float32\[4\]"):
+    checkpoint.restore(d, wrong_shape)
+  with open(checkpoint.path(d), "r+b") as f:   # truncated, e.g. a full disk
+    f.truncate(100)
+  with pytest.raises(CheckpointError, match=r"checkpoint .*checkpoint.npz is damaged"):
+    checkpoint.restore(d, OLD)
+
+
+def test_checkpoints_of_the_two_file_format_are_still_read(tmp_path):
+  d = str(tmp_path)
+  np.savez(os.path.join(d, "state.npz"), leaf_00000=OLD["policy"]["w"], leaf_00001=OLD["step"])
+  with open(os.path.join(d, "meta.json"), "w") as f:
+    json.dump({"chunk": 1, "num_leaves": 2}, f)
+  assert checkpoint.exists(d) and _restored(d) == (0.0, 1, 1)
+  with open(os.path.join(d, "meta.json"), "w") as f:   # data and metadata from different saves
+    json.dump({"chunk": 2, "num_leaves": 3}, f)
+  with pytest.raises(CheckpointError, match="from different saves"):
+    checkpoint.restore(d, OLD)
