@@ -345,13 +345,17 @@ def main(argv=None) -> int:
   args = _parser().parse_args(argv)
   _quiet_imports(args.command)
   from blx.experiments.runs import RunError
+  from blx.training import NonFiniteError
   try:
     return args.fn(args)
-  except (UsageError, RunError, ValueError) as e:
+  except (UsageError, RunError, ValueError, OSError, NonFiniteError) as e:  # expected: one line
     if os.environ.get("BLX_DEBUG"):
       raise
     message = str(e).splitlines()[0] if str(e) else type(e).__name__
-    print(f"blx {args.command}: error: {message}", file=sys.stderr)
+    if isinstance(e, OSError) and e.filename:  # e.g. --out under a file, or not writable
+      message = f"{e.strerror or type(e).__name__}: {e.filename}"
+    print(f"blx {args.command}: error: {message} (BLX_DEBUG=1 shows the traceback)",
+          file=sys.stderr)
     return 2
 
 

@@ -24,37 +24,61 @@ from typing import Any, Callable
 from blx import metrics
 from blx.experiments import runs
 
-__all__ = ["load_spec", "expand", "run_sweep"]
+__all__ = ["load_spec", "check_spec", "expand", "run_sweep"]
 
 _KEYS = {"name", "env", "objective", "seeds", "steps", "config", "options", "env_params", "out"}
 
 
 def load_spec(path: str) -> dict:
   """Reads a sweep spec from .json, .yaml/.yml or .py (a module-level ``SPEC`` dict)."""
-  if not os.path.exists(path):
+  if not os.path.isfile(path):
     raise ValueError(f"sweep spec {path!r} does not exist")
   ext = os.path.splitext(path)[1].lower()
-  if ext == ".json":
-    with open(path) as f:
-      spec = json.load(f)
-  elif ext in (".yaml", ".yml"):
-    import yaml
-    with open(path) as f:
-      spec = yaml.safe_load(f)
-  elif ext == ".py":
-    spec = runpy.run_path(path).get("SPEC")
-  else:
+  if ext not in (".json", ".yaml", ".yml", ".py"):
     raise ValueError(f"sweep spec {path!r}: use .json, .yaml, .yml or .py")
+  try:
+    if ext == ".json":
+      with open(path) as f:
+        spec = json.load(f)
+    elif ext in (".yaml", ".yml"):
+      import yaml
+      with open(path) as f:
+        spec = yaml.safe_load(f)
+    else:
+      spec = runpy.run_path(path).get("SPEC")
+  except Exception as e:  # syntax errors of any of the three formats, or a failing .py
+    first = str(e).splitlines()[0] if str(e) else ""
+    raise ValueError(f"sweep spec {path!r} cannot be read: {type(e).__name__}: {first}") from None
   if not isinstance(spec, dict):
     raise ValueError(f"sweep spec {path!r}: expected a dict (a Python spec defines SPEC = {{...}})")
+  check_spec(spec, f"sweep spec {path!r}")
+  return spec
+
+
+def check_spec(spec: dict, where: str = "sweep spec") -> None:
+  """The spec's keys and the types of its fields, each named when wrong."""
   unknown = sorted(set(spec) - _KEYS)
   if unknown:
-    raise ValueError(f"sweep spec {path!r}: unknown key(s) {unknown}; valid keys are "
-                     f"{sorted(_KEYS)}")
+    raise ValueError(f"{where}: unknown key(s) {unknown}; valid keys are {sorted(_KEYS)}")
   for key in ("env", "objective"):
     if key not in spec:
-      raise ValueError(f"sweep spec {path!r}: missing {key!r}")
-  return spec
+      raise ValueError(f"{where}: missing {key!r}")
+  seeds = spec.get("seeds", [0])
+  if (not isinstance(seeds, list) or not seeds or len(set(map(repr, seeds))) != len(seeds)
+      or not all(isinstance(s, int) and not isinstance(s, bool) and s >= 0 for s in seeds)):
+    raise ValueError(f"{where}: seeds must be a list of distinct non-negative ints, e.g. [0, 1, 2], "
+                     f"got {seeds!r}")
+  for group in ("config", "options", "env_params"):
+    if not isinstance(spec.get(group) or {}, dict):
+      raise ValueError(f"{where}: {group} must be a mapping of setting -> value (or list of "
+                       f"values), got {spec[group]!r}")
+  for key in ("name", "out"):
+    if key in spec and not isinstance(spec[key], str):
+      raise ValueError(f"{where}: {key} must be a string, got {spec[key]!r}")
+  name = spec.get("name")
+  if name is not None and (not name or os.sep in name or "/" in name or name.startswith(".")):
+    raise ValueError(f"{where}: name {name!r} must be a plain directory name (no '/' and not "
+                     "starting with '.'); use out to choose where the sweep is written")
 
 
 def _axes(spec: dict) -> list[tuple[tuple[str, ...], list]]:
@@ -126,6 +150,7 @@ def run_sweep(spec: dict, out: str, *, progress=True, eval_metrics: bool = False
   share one sweep: each trains its own points, and a last call with ``select=lambda *_: False``
   gathers them all.
   """
+  check_spec(spec)
   points = expand(spec)
   # Build everything first so a bad option fails before any training; the tables ask
   # blx.metrics how each objective is measured.

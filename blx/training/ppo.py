@@ -192,6 +192,8 @@ class Learner(NamedTuple):
 
 def make_learner(obs_size: int, action_size: int, objective: Objective,
                  config: PPOConfig) -> Learner:
+  """The networks (policy ``[*policy_hidden, 2 A]``, value ``[*value_hidden, 1]``) and the
+  optimiser (global-norm clipping, then Adam) for an env of these sizes."""
   c = config
   optimizer = optax.chain(
       optax.clip_by_global_norm(c.max_grad_norm) if c.max_grad_norm else optax.identity(),

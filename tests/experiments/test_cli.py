@@ -202,3 +202,34 @@ def test_plot_axes_name_the_quantity_and_the_observation_index():
                                                         "agent1 velocity y (obs 3)"]
   assert feature_labels(make_env("ant"), (13, 14, 7)) == [
       "agent1 velocity x (obs 13)", "agent1 velocity y (obs 14)", "agent1/joint_pos[2] (obs 7)"]
+
+
+@pytest.mark.parametrize("content, suffix, message", [
+    ("{not json", ".json", "cannot be read: JSONDecodeError"),
+    ("env: [point\n", ".yaml", "cannot be read: "),
+    ("SPEC = {", ".py", "cannot be read: SyntaxError"),
+    ('{"env": "point", "objective": "gcrl", "seeds": 3}', ".json",
+     "seeds must be a list of distinct non-negative ints"),
+    ('{"env": "point", "objective": "gcrl", "seeds": [0, 0]}', ".json", "distinct"),
+    ('{"env": "point", "objective": "gcrl", "config": 5}', ".json",
+     "config must be a mapping of setting -> value"),
+    ('{"env": "point", "objective": "gcrl", "name": "../../escape"}', ".json",
+     "must be a plain directory name"),
+])
+def test_bad_sweep_specs_are_one_line(tmp_path, capsys, content, suffix, message):
+  path = tmp_path / f"spec{suffix}"
+  path.write_text(content)
+  assert cli.main(["sweep", str(path), "--out", str(tmp_path / "out")]) == 2
+  err = capsys.readouterr().err.strip().splitlines()
+  assert len(err) == 1 and message in err[0] and "Traceback" not in err[0], err
+  assert not os.path.exists(tmp_path / "out")
+
+
+def test_unwritable_output_is_one_line(tmp_path, capsys):
+  blocker = tmp_path / "file"
+  blocker.write_text("")
+  assert cli.main(["train", "--out", str(blocker / "run"), *TINY]) == 2
+  err = capsys.readouterr().err
+  assert "Traceback" not in err
+  last = err.strip().splitlines()[-1]
+  assert last.startswith("blx train: error: Not a directory") and str(blocker) in last, err
