@@ -122,6 +122,9 @@ def read_spec(directory: str) -> RunSpec:
       data = json.load(f)
   except (OSError, json.JSONDecodeError) as e:
     raise RunError(f"{path}: unreadable config.json ({e})") from None
+  if not isinstance(data, dict):
+    raise RunError(f"{path}: expected a JSON object (a blx run config), got a "
+                   f"{type(data).__name__}")
   version = data.get("format_version")
   if version != FORMAT_VERSION:
     raise RunError(f"{directory!r} was written by run format {version!r}; this blx reads format "

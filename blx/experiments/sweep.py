@@ -65,9 +65,10 @@ def check_spec(spec: dict, where: str = "sweep spec") -> None:
       raise ValueError(f"{where}: missing {key!r}")
   seeds = spec.get("seeds", [0])
   if (not isinstance(seeds, list) or not seeds or len(set(map(repr, seeds))) != len(seeds)
-      or not all(isinstance(s, int) and not isinstance(s, bool) and s >= 0 for s in seeds)):
-    raise ValueError(f"{where}: seeds must be a list of distinct non-negative ints, e.g. [0, 1, 2], "
-                     f"got {seeds!r}")
+      or not all(isinstance(s, int) and not isinstance(s, bool) and 0 <= s < 2**31
+                 for s in seeds)):
+    raise ValueError(f"{where}: seeds must be a list of distinct ints in 0..2**31 - 1, e.g. "
+                     f"[0, 1, 2], got {seeds!r}")
   for group in ("config", "options", "env_params"):
     if not isinstance(spec.get(group) or {}, dict):
       raise ValueError(f"{where}: {group} must be a mapping of setting -> value (or list of "

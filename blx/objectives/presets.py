@@ -49,6 +49,11 @@ def resolve_indices(obs_indices: Indices, env: Any = None, *, who: str) -> tuple
   """Ints as they are; names (``"vel_xy"`` or a list of names) through ``env.obs_indices``."""
   if obs_indices is None:
     return None
+  if isinstance(obs_indices, (int, np.integer)) and not isinstance(obs_indices, bool):
+    obs_indices = [obs_indices]
+  if not isinstance(obs_indices, (str, list, tuple, np.ndarray)):
+    raise ValueError(f"{who}: obs_indices must be a name such as 'vel_xy', an int or a list of "
+                     f"them, got {obs_indices!r}")
   names = [obs_indices] if isinstance(obs_indices, str) else list(obs_indices)
   if not names:
     raise ValueError(f"{who}: obs_indices is empty")

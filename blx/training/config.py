@@ -8,6 +8,8 @@ from typing import Any
 
 __all__ = ["PPOConfig", "ppo_defaults"]
 
+MAX_INT = 2**31 - 1  # step and iteration counters are 32-bit on the device
+
 
 @dataclasses.dataclass(frozen=True)
 class PPOConfig:
@@ -56,8 +58,8 @@ class PPOConfig:
                 "num_eval_envs")
     for name in positive:
       value = getattr(self, name)
-      if not isinstance(value, int) or isinstance(value, bool) or value < 1:
-        raise ValueError(f"PPOConfig.{name} must be a positive int, got {value!r}")
+      if not isinstance(value, int) or isinstance(value, bool) or not 1 <= value <= MAX_INT:
+        raise ValueError(f"PPOConfig.{name} must be a positive int up to 2**31 - 1, got {value!r}")
     real = lambda v: isinstance(v, (int, float)) and not isinstance(v, bool)
     for name in ("learning_rate", "entropy_cost", "discounting", "gae_lambda", "clipping_epsilon",
                  "reward_scaling"):

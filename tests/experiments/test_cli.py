@@ -135,6 +135,10 @@ def test_sweep_writes_one_run_per_point_and_aggregate_tables(tmp_path, capsys):
     (["train", "--num-skills", "1"], "num_skills must be an int >= 2, got 1"),
     (["eval", "/nonexistent/run"], "no run directory at"),
     (["envs", "nope"], "unknown env 'nope'"),
+    (["train", "--steps", str(10**23)], "num_timesteps must be a positive int up to 2**31 - 1"),
+    (["train", "--seeds", str(10**20)], "seeds are ints in 0..2**31 - 1"),
+    (["train", "--seeds", "0,0"], "a seed is repeated"),
+    (["train", "--obs-indices", "1.5"], "obs_indices must be a name such as 'vel_xy', an int or"),
     (["render", "anyrun", "--width", "0"], "--width 0: valid sizes are 16..4096 pixels"),
     (["render", "anyrun", "--height", "100000"], "--height 100000: valid sizes are 16..4096"),
     (["render", "anyrun", "--steps", "0"], "--steps 0: give at least 1 env step"),
@@ -160,6 +164,9 @@ def test_incompatible_or_existing_run_directories(trained, tmp_path, capsys):
   assert "run format 0" in capsys.readouterr().err
   assert cli.main(["eval", str(tmp_path)]) == 2
   assert "not a blx run directory" in capsys.readouterr().err
+  (old / "config.json").write_text("[1, 2]")   # valid JSON, not a run config
+  assert cli.main(["eval", str(old)]) == 2
+  assert "expected a JSON object (a blx run config), got a list" in capsys.readouterr().err
 
 
 def test_resume_reads_the_run_and_never_writes_on_a_contradiction(trained, tmp_path, capsys):
@@ -209,7 +216,7 @@ def test_plot_axes_name_the_quantity_and_the_observation_index():
     ("env: [point\n", ".yaml", "cannot be read: "),
     ("SPEC = {", ".py", "cannot be read: SyntaxError"),
     ('{"env": "point", "objective": "gcrl", "seeds": 3}', ".json",
-     "seeds must be a list of distinct non-negative ints"),
+     "seeds must be a list of distinct ints in 0..2**31 - 1"),
     ('{"env": "point", "objective": "gcrl", "seeds": [0, 0]}', ".json", "distinct"),
     ('{"env": "point", "objective": "gcrl", "config": 5}', ".json",
      "config must be a mapping of setting -> value"),
