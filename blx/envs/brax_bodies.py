@@ -59,7 +59,7 @@ from blx.envs.mjcf import Element
 
 __all__ = ["ant", "pro_ant", "halfcheetah", "humanoid", "ANT_DAMPING", "ANT_STRENGTH", "ANT_OPTIONS",
            "ANT_FAST_OPTIONS",
-           "CHEETAH_LINKS", "CHEETAH_RADIUS", "cheetah_skeleton", "cheetah_spec"]
+           "CHEETAH_LINKS", "CHEETAH_RADIUS", "cheetah_skeleton", "cheetah_spec", "ant_spec"]
 
 ANT_DAMPING = 35.0        # Brax joint angular_damping, N m s/rad
 ANT_STRENGTH = 300.0      # Brax motor strength (v0.0.6 stock ant)
@@ -75,6 +75,13 @@ ANT_FAST_OPTIONS = dict(timestep=0.01, substeps=5)
 def _inertial(body: Element, mass: float, inertia: float | None = None, pos=(0, 0, 0)) -> None:
   diag = _UNIT["diaginertia"] if inertia is None else (inertia,) * 3
   body.add("inertial", pos=pos, mass=mass, diaginertia=diag)
+
+
+def ant_spec(torso: Element, motors, feet, **extra) -> ComponentSpec:
+  """The ComponentSpec of an ant (Brax's or Gym's): a free torso whose sphere and the feet collide."""
+  return ComponentSpec(bodies=(torso,), motors=tuple(motors), root="torso",
+                       root_linear={-1: "root"}, colliders=("torso_geom", *feet),
+                       root_colliders=("torso_geom",), **extra)
 
 
 def _brax_ant(num_legs: int, first_angle: float, strength: float, brax_axes: bool) -> ComponentSpec:
@@ -121,13 +128,8 @@ def _brax_ant(num_legs: int, first_angle: float, strength: float, brax_axes: boo
     feet.append(f"foot_{i}_geom")
     default[f"ankle_{i}"] = math.radians(0.5 * (lo + hi))
     bodies += [f"thigh_{i}", f"shin_{i}"]
-  return ComponentSpec(
-      bodies=(torso,),
-      motors=tuple(motors),
-      root="torso",
-      root_linear={-1: "root"},
-      colliders=("torso_geom", *feet),
-      root_colliders=("torso_geom",),
+  return ant_spec(
+      torso, motors, feet,
       observers=("root_z_joints", "cfrc"),
       termination=Termination(min_z=0.2, max_z=1.0, check_flip=False),
       default_qpos=default,

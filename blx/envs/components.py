@@ -71,16 +71,8 @@ def _legged_ant(num_legs: int, angle_offset: float) -> ComponentSpec:
              **_ANT_GEOM)
     motors += [(f"hip_{i}", 150.0), (f"knee_{i}", 150.0)]
     feet.append(f"foot_{i}_geom")
-  return ComponentSpec(
-      bodies=(torso,),
-      motors=tuple(motors),
-      root="torso",
-      root_linear={-1: "root"},
-      colliders=("torso_geom", *feet),
-      root_colliders=("torso_geom",),
-      observers=("root_z_joints",),
-      termination=Termination(min_z=0.2, max_z=1.0, check_flip=True),
-  )
+  return brax_bodies.ant_spec(torso, motors, feet, observers=("root_z_joints",),
+                              termination=Termination(min_z=0.2, max_z=1.0, check_flip=True))
 
 
 def gym_ant() -> ComponentSpec:
