@@ -15,7 +15,8 @@ from blx import metrics
 __all__ = ["training_curves", "skills", "density", "discriminator", "write_all"]
 
 CURVE_PATTERNS = (r"^eval/episode_reward$", r"^eval/episode_score$", r"^eval/mi$",
-                  r"^eval/entropy$", r"^eval/lgr$", r"^eval/energy_distance$", r"^loss/disc$",
+                  r"^eval/entropy$", r"^eval/lgr$", r"^eval/energy_distance$", r"^eval/mode_share/\d+$",
+                  r"^loss/disc$",
                   r"^disc/accuracy$", r"^loss/policy$", r"^policy/entropy$")
 
 

@@ -3,7 +3,8 @@
 (``evaluate``)."""
 
 from blx.metrics.evaluate import (dmin_evaluator, eval_indices, evaluate_dmin, evaluate_mimax,
-                                  latents_for_evaluation, mimax_evaluator, rollout)
+                                  latents_for_evaluation, mimax_evaluator, mode_shares,
+                                  rollout)
 from blx.metrics.families import PLOTS, Family, evaluator_for, family_of, register_family
 from blx.metrics.particle import (energy_distance, entropy, entropy_2d, latent_goal_reaching,
                                   mutual_information, mutual_information_2d, state_coverage)
@@ -11,5 +12,5 @@ from blx.metrics.particle import (energy_distance, entropy, entropy_2d, latent_g
 __all__ = ["energy_distance", "entropy", "entropy_2d", "latent_goal_reaching",
            "mutual_information", "mutual_information_2d", "state_coverage",
            "rollout", "latents_for_evaluation", "eval_indices", "mimax_evaluator",
-           "dmin_evaluator", "evaluate_mimax", "evaluate_dmin",
+           "dmin_evaluator", "mode_shares", "evaluate_mimax", "evaluate_dmin",
            "Family", "register_family", "family_of", "evaluator_for", "PLOTS"]

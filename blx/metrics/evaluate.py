@@ -29,7 +29,7 @@ from blx.objectives.base import Objective
 from blx.objectives.specs import DminSpec, MimaxSpec
 
 __all__ = ["rollout", "latents_for_evaluation", "eval_indices", "mimax_evaluator",
-           "dmin_evaluator", "evaluate_mimax", "evaluate_dmin"]
+           "dmin_evaluator", "mode_shares", "evaluate_mimax", "evaluate_dmin"]
 
 
 def rollout(env: Any, policy: Callable, params: dict, latents: jax.Array, key: jax.Array, *,
@@ -155,16 +155,39 @@ def dmin_evaluator(env: Any, objective: Objective, *, num_episodes: int = 10,
   _check_spec(objective, DminSpec, "dmin_evaluator")
   indices = np.asarray(objective.spec.obs_indices)
   target = jnp.asarray(objective.spec.target.samples)[:, :len(indices)]
+  means = objective.spec.target.means
 
   def evaluate(policy, params, key):
     states = rollout(env, policy, params, jnp.zeros((1, 0)), key,
                      episodes_per_latent=num_episodes, episode_length=episode_length,
                      action_repeat=action_repeat, conditions_policy=False,
                      deterministic=deterministic)
-    x = states[0, :, -last_steps:][:, ::every][..., indices].reshape(-1, len(indices))
-    return {"eval/energy_distance": particle.energy_distance(x, target)}
+    x = states[0, :, -last_steps:][:, ::every][..., indices]  # [episodes, samples, D]
+    out = {"eval/energy_distance": particle.energy_distance(x.reshape(-1, len(indices)), target)}
+    if means is not None and len(means) > 1:
+      out.update(mode_shares(x, jnp.asarray(means)[:, :len(indices)]))
+    return out
 
   return evaluate
+
+
+def mode_shares(x: jax.Array, means: jax.Array) -> dict[str, jax.Array]:
+  """How samples ``x [episodes, samples, D]`` share out among a target's modes ``means [K, D]``.
+
+  ``eval/mode_share/k``: the fraction of all samples nearest to mode k (the target's own share is
+  1 / K for Braxlines' equal-weight mixtures). ``eval/episode_mode_share/k``: the fraction of episodes
+  whose samples are mostly nearest to mode k. Together they tell a policy whose episodes each pick
+  a mode from one that visits every mode within an episode, and one that covers a single mode.
+  """
+  nearest = jnp.argmin(((x[..., None, :] - means) ** 2).sum(-1), axis=-1)  # [episodes, samples]
+  onehot = jax.nn.one_hot(nearest, len(means))
+  per_episode = onehot.mean(1)  # [episodes, K]
+  majority = jax.nn.one_hot(jnp.argmax(per_episode, -1), len(means)).mean(0)
+  out = {}
+  for k in range(len(means)):
+    out[f"eval/mode_share/{k}"] = per_episode[:, k].mean()
+    out[f"eval/episode_mode_share/{k}"] = majority[k]
+  return out
 
 
 def evaluate_mimax(env: Any, objective: Objective, params: dict, key: jax.Array, *,

@@ -20,11 +20,14 @@ class Target(NamedTuple):
     samples: ``[M, D]`` the fixed samples the discriminator trains on (and metrics compare to).
     log_prob: ``x [D] -> []`` the density when it is known (needed by ``mle``), else None.
     name: a label for plots and logs.
+    means: ``[K, D]`` the centres of the target's modes when it has known modes (a mixture), else
+      None; evaluation then reports how the policy's samples share out among them.
   """
 
   samples: jax.Array
   log_prob: Callable[[jax.Array], jax.Array] | None
   name: str
+  means: jax.Array | None = None
 
   @property
   def dim(self) -> int:
@@ -68,7 +71,7 @@ def multimode_gaussian(num_modes: int = 2, *, scale: float, dim: int, num_sample
           means, jnp.full_like(means, std)))
   samples = mixture.sample(seed=jax.random.PRNGKey(seed), sample_shape=(num_samples,))
   return Target(samples=samples, log_prob=mixture.log_prob,
-                name=f"{num_modes}-mode gaussian (scale {scale:g}, {dim}-D)")
+                name=f"{num_modes}-mode gaussian (scale {scale:g}, {dim}-D)", means=means)
 
 
 def target_from_samples(samples, *, name: str = "samples") -> Target:

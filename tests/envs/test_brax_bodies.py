@@ -105,6 +105,28 @@ def test_ant_hip_responds_to_a_full_action_like_brax():
   assert 10.65 - 1 <= hip[0] <= 20.4 + 1 and 29.1 - 1 <= hip[1] <= 32.5 + 1, hip
 
 
+def test_ant_limit_damping_sets_how_the_hip_rebounds_from_its_limit():
+  # In the air, hip 1 driven at +1 for 3 steps hits its +30 deg limit at 7.3 rad/s. Critically
+  # damped (the default) it stops on the limit: the next step's velocity is -0.1 rad/s and it rests
+  # at 30.0 deg. At Brax's damping ratio 0.35 the limit bounces it back (-2.5 rad/s) to 28.4 deg.
+  hips = {}
+  for ratio in (1.0, 0.35):
+    env = envs.create("ant", edits={"components.agent1.component_params":
+                                    {"limit_damping": ratio}}).unwrapped
+    model = mujoco.MjModel.from_xml_string(env.xml)
+    model.opt.gravity[:] = 0.0
+    start = env.init_qpos.copy()
+    start[2] += 1.0
+    out = ref.run(env, lambda t, q: np.eye(8)[0] * (t < 3), 8, model=model, qpos0=start)
+    hips[ratio] = (np.degrees(out["qpos"][:, 7]), out["qvel"][:, 6])
+  (angle_c, vel_c), (angle_b, vel_b) = hips[1.0], hips[0.35]
+  assert vel_c[1] > 5 and vel_b[1] > 5  # both reach the limit moving fast
+  assert vel_c[2] > -0.5 and abs(angle_c[-1] - 30.0) < 0.2, (vel_c, angle_c)
+  assert vel_b[2] < -1.5 and angle_b[-1] < 29.0, (vel_b, angle_b)
+  with pytest.raises(ValueError, match="limit_damping=0.*finite number > 0"):
+    envs.create("ant", edits={"components.agent1.component_params": {"limit_damping": 0.0}})
+
+
 def test_ant_under_random_actions_matches_brax_and_not_the_gym_ant():
   env = _env("ant")
   lengths, z, v = _random_episodes(env, 48, 1000, seed=0, termination=(0.2, 1.0))

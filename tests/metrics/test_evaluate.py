@@ -75,6 +75,22 @@ def test_dmin_helper_matches_a_direct_energy_distance():
   expected = (2 * np.linalg.norm(y - [4.0, 0.0], axis=-1).mean()
               - np.linalg.norm(y[:, None] - y[None], axis=-1).mean())
   np.testing.assert_allclose(out["eval/energy_distance"], expected, rtol=1e-3)
+  # Every sample sits on mode 0, (4, 0): the policy covers one of the target's two modes.
+  assert out["eval/mode_share/0"] == 1.0 and out["eval/mode_share/1"] == 0.0
+  assert out["eval/episode_mode_share/0"] == 1.0
+
+
+def test_mode_shares_tell_episodes_that_pick_a_mode_from_episodes_that_visit_both():
+  means = jnp.array([[4.0, 0.0], [-4.0, 0.0]])
+  plus, minus = [3.5, 0.3], [-4.2, -0.1]
+  x = jnp.array([[plus] * 4,                   # episode 0 stays at +4
+                 [minus] * 4,                  # episode 1 at -4
+                 [plus, plus, plus, minus]])   # episode 2 goes to both, mostly +4
+  out = metrics.mode_shares(x, means)
+  np.testing.assert_allclose(out["eval/mode_share/0"], (1 + 0 + 0.75) / 3, rtol=1e-6)
+  np.testing.assert_allclose(out["eval/mode_share/1"], (0 + 1 + 0.25) / 3, rtol=1e-6)
+  np.testing.assert_allclose(out["eval/episode_mode_share/0"], 2 / 3, rtol=1e-6)
+  np.testing.assert_allclose(out["eval/episode_mode_share/1"], 1 / 3, rtol=1e-6)
 
 
 def test_evaluation_samples_actions_unless_deterministic():
