@@ -23,6 +23,7 @@ import numpy as np
 from blx.envs import brax_bodies  # the paper's bodies
 from blx.envs.mjcf import Element
 from blx.envs.spec import MAX_LEGS, MIN_LEGS, ComponentSpec, Termination
+from blx.options import accepts_any_keyword, check_names, keyword_names
 
 __all__ = [
     "ComponentSpec",
@@ -276,13 +277,11 @@ def list_components() -> list[str]:
 def _check_params(where: str, fn: Callable, params: Mapping[str, Any]) -> None:
   """Rejects unknown parameters and values whose type differs from the parameter's default."""
   signature = inspect.signature(fn)
-  accepts_any = any(p.kind is p.VAR_KEYWORD for p in signature.parameters.values())
-  valid = [n for n, p in signature.parameters.items() if p.kind is not p.VAR_KEYWORD]
+  if not accepts_any_keyword(fn):
+    check_names(where, params, keyword_names(fn), "parameter")
   for key, value in params.items():
     if key not in signature.parameters:
-      if accepts_any:
-        continue
-      raise ValueError(f"{where}: unknown parameter {key!r}; valid parameters are {valid or 'none'}")
+      continue
     default = signature.parameters[key].default
     if default is inspect.Parameter.empty or default is None:
       continue

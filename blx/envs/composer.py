@@ -37,6 +37,7 @@ from typing import Any, Mapping
 from blx.envs import components as components_lib
 from blx.envs.components import GROUND, ComponentSpec
 from blx.envs.mjcf import Element, walk
+from blx.options import check_names
 
 __all__ = ["Scene", "compose", "apply_edits", "GLOBAL_OPTIONS", "TOP_KEYS", "COMPONENT_KEYS",
            "EDGE_KEYS"]
@@ -78,9 +79,7 @@ def _err(where: str, message: str) -> ValueError:
 def _check_keys(where: str, mapping: Any, valid: tuple[str, ...]) -> None:
   if not isinstance(mapping, Mapping):
     raise _err(where, f"expected a dict, got {mapping!r}")
-  unknown = sorted(set(mapping) - set(valid))
-  if unknown:
-    raise _err(where, f"unknown key(s) {unknown}; valid keys are {list(valid)}")
+  check_names(where, mapping, valid, "key")
 
 
 def _vector(where: str, value: Any, size: int) -> tuple[float, ...]:

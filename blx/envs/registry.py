@@ -9,6 +9,7 @@ from typing import Any, Callable, Mapping
 from blx.envs import wrappers
 from blx.envs.composer import apply_edits
 from blx.envs.env import Env
+from blx.options import check_names, keyword_names
 
 __all__ = ["create", "list_envs", "register_env", "get_desc"]
 
@@ -49,11 +50,7 @@ def _lookup(name: str):
 
 def _build(where: str, entry, params: Mapping[str, Any]) -> dict:
   if callable(entry):
-    valid = inspect.signature(entry).parameters
-    unknown = sorted(set(params) - set(valid))
-    if unknown:
-      raise ValueError(f"{where}: unknown parameter(s) {unknown}; valid parameters are "
-                       f"{list(valid) or 'none'}")
+    check_names(where, params, keyword_names(entry), "parameter")
     desc = entry(**params)
   else:
     if params:

@@ -29,7 +29,6 @@ constant       any     value
 from __future__ import annotations
 
 import dataclasses
-import inspect
 import math
 from typing import Any, Callable, Sequence
 
@@ -37,6 +36,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from blx.envs.observers import SDCOMPS, Handle, root_quantity
+from blx.options import check_names, keyword_names
 
 __all__ = ["RewardTerm", "build_reward_term", "REWARD_TYPES", "WRAPPER_KEYS"]
 
@@ -170,12 +170,9 @@ def build_reward_term(name: str, spec: Any, owners: Sequence[Handle], where: str
   offset = float(kwargs.pop("offset", 0.0))
   done_bonus = float(kwargs.pop("done_bonus", 0.0))
   excluded = bool(kwargs.pop("exclude_from_score", False))
-  params = inspect.signature(builder).parameters
-  valid = sorted(n for n, p in params.items() if p.kind is p.KEYWORD_ONLY)
-  unknown = sorted(set(kwargs) - set(valid))
-  if unknown:
-    raise ValueError(f"{where}: unknown keys {unknown} for reward_type {reward_type!r}; valid keys "
-                     f"are {valid + sorted(WRAPPER_KEYS) + ['reward_type']}")
+  check_names(f"{where} (reward_type {reward_type!r})", kwargs,
+              keyword_names(builder, keyword_only=True), "key",
+              extra_valid=sorted(WRAPPER_KEYS) + ["reward_type"])
   raw = builder(owners, where, **kwargs)
   sign = float(np.sign(scale))
 

@@ -48,14 +48,11 @@ def _parse_seeds(text: str) -> tuple[int, ...]:
     seeds = tuple(int(s) for s in text.split(",") if s.strip())
   except ValueError:
     raise UsageError(f"--seeds {text!r}: expected comma-separated ints, e.g. --seeds 0,1,2") from None
-  if not seeds:
-    raise UsageError("--seeds: give at least one seed")
-  bad = [s for s in seeds if not 0 <= s < 2**31]
-  if bad:
-    raise UsageError(f"--seeds {bad}: seeds are ints in 0..2**31 - 1")
-  if len(set(seeds)) != len(seeds):
-    raise UsageError(f"--seeds {text!r}: a seed is repeated; each seed is one run")
-  return seeds
+  from blx.training.config import check_seeds
+  try:
+    return check_seeds(seeds, f"--seeds {text!r}")
+  except ValueError as e:
+    raise UsageError(str(e)) from None
 
 
 class _Progress:

@@ -21,8 +21,9 @@ import os
 import runpy
 from typing import Any, Callable
 
-from blx import metrics
+from blx import metrics, training
 from blx.experiments import runs
+from blx.options import check_names
 
 __all__ = ["load_spec", "check_spec", "expand", "run_sweep"]
 
@@ -57,18 +58,15 @@ def load_spec(path: str) -> dict:
 
 def check_spec(spec: dict, where: str = "sweep spec") -> None:
   """The spec's keys and the types of its fields, each named when wrong."""
-  unknown = sorted(set(spec) - _KEYS)
-  if unknown:
-    raise ValueError(f"{where}: unknown key(s) {unknown}; valid keys are {sorted(_KEYS)}")
+  check_names(where, spec, sorted(_KEYS), "key")
   for key in ("env", "objective"):
     if key not in spec:
       raise ValueError(f"{where}: missing {key!r}")
   seeds = spec.get("seeds", [0])
-  if (not isinstance(seeds, list) or not seeds or len(set(map(repr, seeds))) != len(seeds)
-      or not all(isinstance(s, int) and not isinstance(s, bool) and 0 <= s < 2**31
-                 for s in seeds)):
+  if not isinstance(seeds, list):
     raise ValueError(f"{where}: seeds must be a list of distinct ints in 0..2**31 - 1, e.g. "
                      f"[0, 1, 2], got {seeds!r}")
+  training.check_seeds(seeds, f"{where}: seeds")
   for group in ("config", "options", "env_params"):
     if not isinstance(spec.get(group) or {}, dict):
       raise ValueError(f"{where}: {group} must be a mapping of setting -> value (or list of "

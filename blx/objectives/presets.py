@@ -34,6 +34,7 @@ from blx.objectives import dmin, mimax, priors, spectral
 from blx.objectives.base import Objective, Transition, task
 from blx.objectives.specs import DminSpec, MimaxSpec
 from blx.objectives.targets import Target, multimode_gaussian
+from blx.options import check_names, keyword_names
 
 __all__ = ["gcrl", "fixed_gcrl", "cdiayn", "diayn", "diayn_full", "gail", "gail2", "airl", "fairl",
            "mle", "task", "make", "list_objectives", "options_of", "resolve_indices"]
@@ -510,9 +511,5 @@ def _preset(name: str) -> Callable[..., Objective]:
 def make(name: str, **options: Any) -> Objective:
   """Builds preset ``name`` with ``options``; unknown names and options fail with the valid ones."""
   fn = _preset(name)
-  valid = inspect.signature(fn).parameters
-  unknown = sorted(set(options) - set(valid))
-  if unknown:
-    raise ValueError(f"objective {name!r}: unknown option(s) {unknown}; valid options are "
-                     f"{sorted(valid)}")
+  check_names(f"objective {name!r}", options, keyword_names(fn), "option")
   return fn(**options)

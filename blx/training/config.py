@@ -6,7 +6,11 @@ import dataclasses
 import math
 from typing import Any
 
-__all__ = ["PPOConfig", "ppo_defaults"]
+import numpy as np
+
+from blx.options import check_names
+
+__all__ = ["PPOConfig", "ppo_defaults", "check_seeds"]
 
 MAX_INT = 2**31 - 1  # step and iteration counters are 32-bit on the device
 
@@ -109,11 +113,23 @@ class PPOConfig:
     return self.num_envs * self.unroll_length * self.num_unrolls * self.action_repeat
 
   def replace(self, **changes: Any) -> "PPOConfig":
-    valid = {f.name for f in dataclasses.fields(self)}
-    unknown = sorted(set(changes) - valid)
-    if unknown:
-      raise ValueError(f"PPOConfig: unknown key(s) {unknown}; valid keys are {sorted(valid)}")
+    check_names("PPOConfig", changes, [f.name for f in dataclasses.fields(self)], "key")
     return dataclasses.replace(self, **changes)
+
+
+def check_seeds(seeds: Any, where: str = "seeds") -> tuple[int, ...]:
+  """The seeds of one vmapped run as a tuple: a non-empty sequence of distinct ints in 0..2**31 - 1
+  (one run per seed; a seed is a PRNG key's 32-bit value). Anything else raises ``ValueError``."""
+  if isinstance(seeds, (str, bytes)) or not hasattr(seeds, "__len__") or not len(seeds):
+    raise ValueError(f"{where}: expected a non-empty list of ints such as [0, 1, 2], got {seeds!r}")
+  seeds = list(seeds)
+  bad = [s for s in seeds if not isinstance(s, (int, np.integer)) or isinstance(s, bool)
+         or not 0 <= s <= MAX_INT]
+  if bad:
+    raise ValueError(f"{where}: {bad} are not seeds; seeds are ints in 0..2**31 - 1")
+  if len(set(int(s) for s in seeds)) != len(seeds):
+    raise ValueError(f"{where}: {seeds} repeats a seed; each seed is one run, so seeds are distinct")
+  return tuple(int(s) for s in seeds)
 
 
 # Braxlines experiments/defaults.py (all: episode 1000, normalised observations, lr 3e-4, 2048 envs,

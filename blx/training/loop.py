@@ -13,7 +13,7 @@ import numpy as np
 
 from blx.objectives.base import Objective
 from blx.training import checkpoint
-from blx.training.config import PPOConfig
+from blx.training.config import PPOConfig, check_seeds
 from blx.training.ppo import PolicyParams, TrainState, make_trainer, policy_params
 
 __all__ = ["TrainResult", "train", "NonFiniteError"]
@@ -74,9 +74,7 @@ def train(env: Any, objective: Objective, config: PPOConfig, *, seeds: Sequence[
     NonFiniteError: a loss, a parameter or an observation became non-finite; the message names the
       iteration and the quantity, and the checkpoint of the last good chunk is kept.
   """
-  seeds = [int(s) for s in seeds]
-  if not seeds:
-    raise ValueError("train: give at least one seed")
+  seeds = list(check_seeds(seeds, "train: seeds"))
   trainer = make_trainer(env, objective, config)
   keys = jnp.stack([jax.random.PRNGKey(s) for s in seeds])
   init_keys = jax.vmap(lambda k: jax.random.split(k)[0])(keys)

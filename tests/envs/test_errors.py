@@ -38,14 +38,14 @@ def _with(**changes):
     (_with(components__ball__component_params={"size": "big"}),
      r"parameter 'size' must be float, got 'big'"),
     (_with(components__ball__component_params={"colour": 1}),
-     r"unknown parameter 'colour'.*'size'"),
+     r"unknown parameter\(s\) \['colour'\].*'size'"),
     (_with(components__agent1__component="pro_ant", components__agent1__component_params={
         "num_legs": 1}), r"num_legs=1 is out of range; valid values are 2\.\.16"),
     (_with(components__agent1__component="pro_ant", components__agent1__component_params={
         "num_legs": 4.5}), r"'num_legs' must be int"),
     (_with(global_options={"substepz": 3}), r"global_options: unknown key\(s\) \['substepz'\]"),
     (_with(components__agent1__reward_fns={"g": {"reward_type": "root_goal", "target": 1}}),
-     r"unknown keys \['target'\].*target_goal"),
+     r"unknown key\(s\) \['target'\].*target_goal"),
     (_with(edges={"agent1__ball": {"reward_fns": {"g": {"reward_type": "root_goal"}}}}),
      r"'root_goal' cannot be used on an edge"),
     (_with(edges={"agent1__ball": {"extra_observers": [{"observer_type": "root_angle"}]}}),

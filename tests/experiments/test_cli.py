@@ -137,7 +137,7 @@ def test_sweep_writes_one_run_per_point_and_aggregate_tables(tmp_path, capsys):
     (["envs", "nope"], "unknown env 'nope'"),
     (["train", "--steps", str(10**23)], "num_timesteps must be a positive int up to 2**31 - 1"),
     (["train", "--seeds", str(10**20)], "seeds are ints in 0..2**31 - 1"),
-    (["train", "--seeds", "0,0"], "a seed is repeated"),
+    (["train", "--seeds", "0,0"], "repeats a seed"),
     (["train", "--obs-indices", "1.5"], "obs_indices must be a name such as 'vel_xy', an int or"),
     (["render", "anyrun", "--width", "0"], "--width 0: valid sizes are 16..4096 pixels"),
     (["render", "anyrun", "--height", "100000"], "--height 100000: valid sizes are 16..4096"),
