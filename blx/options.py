@@ -5,9 +5,9 @@ names through :func:`check_names`, so every such error reads the same way."""
 from __future__ import annotations
 
 import inspect
-from typing import Any, Callable, Iterable
+from typing import Any, Callable, Iterable, Mapping
 
-__all__ = ["check_names", "keyword_names", "accepts_any_keyword"]
+__all__ = ["check_names", "check_params", "keyword_names", "accepts_any_keyword"]
 
 
 def keyword_names(fn: Callable, *, keyword_only: bool = False) -> list[str]:
@@ -32,3 +32,29 @@ def check_names(where: str, given: Iterable[Any], valid: Iterable[str], what: st
   if unknown:
     raise ValueError(f"{where}: unknown {what}(s) {unknown}; valid {what}s are "
                      f"{sorted(valid) if valid else 'none'}")
+
+
+def check_params(where: str, fn: Callable, params: Mapping[str, Any]) -> None:
+  """Rejects parameters ``fn`` does not take (unless it takes ``**kwargs``) and values whose type
+  differs from the parameter's default: a float default takes ints and floats, a tuple default
+  tuples and lists, an int default ints only (booleans are never numbers)."""
+  signature = inspect.signature(fn)
+  if not accepts_any_keyword(fn):
+    check_names(where, params, keyword_names(fn), "parameter")
+  for key, value in params.items():
+    if key not in signature.parameters:
+      continue
+    default = signature.parameters[key].default
+    if default is inspect.Parameter.empty or default is None:
+      continue
+    expected = (int, float) if isinstance(default, float) else type(default)
+    if isinstance(default, (tuple, list)):
+      expected = (tuple, list)
+    if isinstance(default, float) and isinstance(value, (tuple, list)):
+      continue  # e.g. singleton size=(radius, length); the factory checks the form
+    if isinstance(value, bool) and not isinstance(default, bool):
+      raise ValueError(f"{where}: parameter {key!r} must be {type(default).__name__}, got {value!r}")
+    if not isinstance(value, expected):
+      raise ValueError(
+          f"{where}: parameter {key!r} must be {type(default).__name__}, got {value!r} "
+          f"({type(value).__name__})")

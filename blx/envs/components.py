@@ -14,7 +14,6 @@ MJCF is generated here.
 
 from __future__ import annotations
 
-import inspect
 import math
 from typing import Any, Callable, Mapping
 
@@ -23,7 +22,7 @@ import numpy as np
 from blx.envs import brax_bodies  # the paper's bodies
 from blx.envs.mjcf import Element
 from blx.envs.spec import MAX_LEGS, MIN_LEGS, ComponentSpec, Termination
-from blx.options import accepts_any_keyword, check_names, keyword_names
+from blx.options import check_params
 
 __all__ = [
     "ComponentSpec",
@@ -274,30 +273,6 @@ def list_components() -> list[str]:
   return sorted(_COMPONENTS) + [GROUND]
 
 
-def _check_params(where: str, fn: Callable, params: Mapping[str, Any]) -> None:
-  """Rejects unknown parameters and values whose type differs from the parameter's default."""
-  signature = inspect.signature(fn)
-  if not accepts_any_keyword(fn):
-    check_names(where, params, keyword_names(fn), "parameter")
-  for key, value in params.items():
-    if key not in signature.parameters:
-      continue
-    default = signature.parameters[key].default
-    if default is inspect.Parameter.empty or default is None:
-      continue
-    expected = (int, float) if isinstance(default, float) else type(default)
-    if isinstance(default, (tuple, list)):
-      expected = (tuple, list)
-    if isinstance(default, float) and isinstance(value, (tuple, list)):
-      continue  # e.g. singleton size=(radius, length); the factory checks the form
-    if isinstance(value, bool) and not isinstance(default, bool):
-      raise ValueError(f"{where}: parameter {key!r} must be {type(default).__name__}, got {value!r}")
-    if not isinstance(value, expected):
-      raise ValueError(
-          f"{where}: parameter {key!r} must be {type(default).__name__}, got {value!r} "
-          f"({type(value).__name__})")
-
-
 def make_component(name: str, params: Mapping[str, Any] | None = None,
                    where: str = "component") -> ComponentSpec:
   """Builds the spec of registered component ``name`` with ``params``, checking them first."""
@@ -306,7 +281,7 @@ def make_component(name: str, params: Mapping[str, Any] | None = None,
                      f"{sorted(_COMPONENTS)}")
   factory = _COMPONENTS[name]
   params = dict(params or {})
-  _check_params(f"{where} ({name})", factory, params)
+  check_params(f"{where} ({name})", factory, params)
   spec = factory(**params)
   if not isinstance(spec, ComponentSpec):
     raise ValueError(f"{where}: factory of component {name!r} returned {type(spec).__name__}, "

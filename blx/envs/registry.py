@@ -9,7 +9,7 @@ from typing import Any, Callable, Mapping
 from blx.envs import wrappers
 from blx.envs.composer import apply_edits
 from blx.envs.env import Env
-from blx.options import check_names, keyword_names
+from blx.options import check_params
 
 __all__ = ["create", "list_envs", "register_env", "get_desc"]
 
@@ -50,7 +50,7 @@ def _lookup(name: str):
 
 def _build(where: str, entry, params: Mapping[str, Any]) -> dict:
   if callable(entry):
-    check_names(where, params, keyword_names(entry), "parameter")
+    check_params(where, entry, params)
     desc = entry(**params)
   else:
     if params:

@@ -83,8 +83,10 @@ def build(spec: RunSpec):
   else:
     env = envs.create(spec.env, **spec.env_params)
   options = dict(spec.objective_options)
-  if spec.objective != "task":
+  accepted = objectives.options_of(spec.objective)  # also rejects an unknown objective
+  if "obs_indices" in accepted:
     options.setdefault("obs_indices", default_obs_indices(spec.env))
+  if "env" in accepted:
     options["env"] = env
   objective = objectives.make(spec.objective, **options)
   config = training.ppo_defaults(spec.env).replace(**spec.ppo)
@@ -150,7 +152,9 @@ def load_run(directory: str, *, need_checkpoint: bool = True) -> Run:
     like = jax.eval_shape(jax.vmap(trainer.init), keys)
     try:
       state, meta = checkpoint.restore(ckpt, like)
-    except Exception as e:  # a checkpoint from another config or version
+    except checkpoint.CheckpointError as e:  # damaged, or written by another config: it says which
+      raise RunError(f"{ckpt}: {e}") from None
+    except Exception as e:  # a checkpoint from another version
       raise RunError(f"{ckpt}: the checkpoint does not match config.json ({e})") from None
     params = training.policy_params(state)
   elif need_checkpoint:

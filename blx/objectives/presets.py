@@ -30,8 +30,9 @@ import jax.numpy as jnp
 import numpy as np
 
 from blx import running_stats
-from blx.objectives import dmin, mimax, priors, spectral
+from blx.objectives import dmin, mimax, posteriors, priors, spectral
 from blx.objectives.base import Objective, Transition, task
+from blx.objectives.posteriors import Posterior
 from blx.objectives.specs import DminSpec, MimaxSpec
 from blx.objectives.targets import Target, multimode_gaussian
 from blx.options import check_names, keyword_names
@@ -164,77 +165,81 @@ class _Disc:
 # MI-max
 
 
-def _mimax(name: str, *, prior: priors.Prior, posterior: str, indices, obs_scale: float,
-           logits_clip: float, spectral_norm: bool, env_reward_multiplier: float,
-           normalize_obs: bool, hidden: Sequence[int], spectral_iteration: str = "fixed",
-           eval_indices=None) -> Objective:
-  """Builds an MI-max objective; ``posterior`` is "identity" (q = N(s_idx, I)), "gaussian" (an
-  MLP mean) or "categorical" (MLP logits)."""
-  _check_options(name, logits_clip=logits_clip, obs_scale=obs_scale)
-  _check_types(name, numbers=dict(env_reward_multiplier=env_reward_multiplier),
-               flags=dict(spectral_norm=spectral_norm, normalize_obs=normalize_obs), hidden=hidden)
-  learned = posterior != "identity"
-  if not learned and (spectral_norm or normalize_obs):
-    raise ValueError(f"{name}: spectral_norm and normalize_obs apply to a learned discriminator; "
-                     f"{name}'s posterior N(s_idx, I) has none")
-  if posterior == "identity" and len(indices) != prior.dim:
-    raise ValueError(f"{name}: {len(indices)} obs_indices for a {prior.dim}-D latent")
-  _check_spectral(name, spectral_iteration)
-  disc = _Disc(prior.dim, hidden, spectral_norm, normalize_obs,
-               spectral_iteration) if learned else None
-  categorical = posterior == "categorical"
-  offset = (mimax.categorical_offset(logits_clip) if categorical
-            else mimax.gaussian_offset(prior.dim))
+def mimax_objective(name: str, *, prior: priors.Prior, posterior: Posterior,
+                    indices: tuple[int, ...] | None, obs_scale: float,
+                    env_reward_multiplier: float = 0.0, eval_indices=None) -> Objective:
+  """Composes an MI-max objective from a prior p(z) and a posterior q(z | s[indices]).
+
+  The reward is r = log q(z | s') + ``posterior.offset`` (+ ``env_reward_multiplier`` x the env's
+  reward); a learned posterior is trained to maximise log q on the policy's transitions.
+  ``indices``: the observation dimensions q reads (None: all); ``eval_indices``: those evaluation
+  looks at (default ``indices``); ``obs_scale``: the half-width of evaluation's histograms.
+  """
+  _check_types(name, numbers=dict(env_reward_multiplier=env_reward_multiplier))
+  network = posterior.network
 
   def init(key, obs_size):
     _check_indices(indices, obs_size, name)
-    if not learned:
-      return {}
-    return disc.init(key, obs_size if indices is None else len(indices))
+    return posterior.init(key, obs_size if indices is None else len(indices))
 
   def posterior_out(params, obs):
-    """The posterior's parameter for one observation: the Gaussian mean or the logits ``[Z]``."""
-    x = _select(obs, indices)
-    return disc.apply(params, x) if learned else x
+    """The posterior's output for one observation: the Gaussian mean or the logits ``[Z]``."""
+    return posterior.out(params, _select(obs, indices))
 
   def log_q(params, obs, z):
-    out = posterior_out(params, obs)
-    if categorical:
-      return mimax.categorical_log_q(z, out, logits_clip=logits_clip)
-    return mimax.gaussian_log_q(z, out, 1.0)
+    return posterior.log_q(z, posterior_out(params, obs))
 
   def reward(params, t: Transition):
-    r = mimax.mimax_reward(log_q(params, t.next_obs, t.z), offset=offset)
+    r = mimax.mimax_reward(log_q(params, t.next_obs, t.z), offset=posterior.offset)
     return r + env_reward_multiplier * t.env_reward
 
   def loss(params, batch: Transition, key):
     del key
-    if not learned:
+    if network is None:
       return jnp.zeros(()), {}
-    lq = jax.vmap(log_q, (None, 0, 0))(params, batch.next_obs, batch.z)
+    out = jax.vmap(posterior_out, (None, 0))(params, batch.next_obs)
+    lq = jax.vmap(posterior.log_q)(batch.z, out)
     value = -jnp.mean(lq)
     metrics = {"loss/disc": value, "disc/log_q": jnp.mean(lq)}
-    if categorical:
-      logits = jax.vmap(posterior_out, (None, 0))(params, batch.next_obs)
-      metrics["disc/accuracy"] = jnp.mean(jnp.argmax(logits, -1) == jnp.argmax(batch.z, -1))
+    if posterior.accuracy is not None:
+      metrics["disc/accuracy"] = posterior.accuracy(out, batch.z)
     return value, metrics
 
   def post_update(params, batch: Transition):
-    return disc.post_update(params, jax.vmap(lambda o: _select(o, indices))(batch.next_obs))
+    return network.post_update(params, jax.vmap(lambda o: _select(o, indices))(batch.next_obs))
 
   def infer_latent(params, obs):
     """The skill that best explains ``obs``: the posterior mean, or the one-hot argmax."""
-    out = posterior_out(params, obs)
-    return jax.nn.one_hot(jnp.argmax(out), prior.dim) if categorical else out
+    return posterior.infer(posterior_out(params, obs))
 
   return Objective(
       init=init, sample_latent=prior.sample, reward=reward, loss=loss, latent_size=prior.dim,
       conditions_policy=True, name=name,
-      post_update=post_update if learned and disc.has_post_update else None,
+      post_update=post_update if network is not None and network.has_post_update else None,
       spec=MimaxSpec(prior=prior, obs_indices=indices,
                      eval_indices=eval_indices if eval_indices is not None else indices,
-                     obs_scale=float(obs_scale), offset=offset, posterior=posterior,
+                     obs_scale=float(obs_scale), offset=posterior.offset, posterior=posterior.kind,
                      posterior_out=posterior_out, infer_latent=infer_latent, log_q=log_q))
+
+
+def _learned(name: str, dim: int, *, obs_scale: float, logits_clip: float, spectral_norm: bool,
+             normalize_obs: bool, hidden: Sequence[int], spectral_iteration: str) -> _Disc:
+  """The checked discriminator network of a learned posterior."""
+  _check_options(name, logits_clip=logits_clip, obs_scale=obs_scale)
+  _check_types(name, flags=dict(spectral_norm=spectral_norm, normalize_obs=normalize_obs),
+               hidden=hidden)
+  _check_spectral(name, spectral_iteration)
+  return _Disc(dim, hidden, spectral_norm, normalize_obs, spectral_iteration)
+
+
+def _goal(name: str, prior: priors.Prior, indices, obs_scale: float,
+          env_reward_multiplier: float) -> Objective:
+  """GCRL-style: the features are the goal, q(z | s) = N(s_idx, I)."""
+  _check_options(name, logits_clip=5.0, obs_scale=obs_scale)
+  if len(indices) != prior.dim:
+    raise ValueError(f"{name}: {len(indices)} obs_indices for a {prior.dim}-D latent")
+  return mimax_objective(name, prior=prior, posterior=posteriors.identity_posterior(prior.dim),
+                indices=indices, obs_scale=obs_scale, env_reward_multiplier=env_reward_multiplier)
 
 
 def _need_indices(name, obs_indices, env):
@@ -251,10 +256,8 @@ def fixed_gcrl(*, obs_indices: Indices = None, env: Any = None, obs_scale: float
   r = 4.5 d - 1/2 ||z - s_idx||^2 + const normaliser terms (>= 0 within 3 of the goal)."""
   indices = _need_indices("fixed_gcrl", obs_indices, env)
   _check_types("fixed_gcrl", numbers=dict(obs_scale=obs_scale))  # used before _mimax checks it
-  return _mimax("fixed_gcrl", prior=priors.deterministic_prior(np.full(len(indices), obs_scale)),
-                posterior="identity", indices=indices, obs_scale=obs_scale, logits_clip=5.0,
-                spectral_norm=False, env_reward_multiplier=env_reward_multiplier,
-                normalize_obs=False, hidden=())
+  return _goal("fixed_gcrl", priors.deterministic_prior(np.full(len(indices), obs_scale)),
+               indices, obs_scale, env_reward_multiplier)
 
 
 def gcrl(*, obs_indices: Indices = None, env: Any = None, obs_scale: float = 5.0,
@@ -263,10 +266,8 @@ def gcrl(*, obs_indices: Indices = None, env: Any = None, obs_scale: float = 5.0
   indices = _need_indices("gcrl", obs_indices, env)
   _check_types("gcrl", numbers=dict(obs_scale=obs_scale))  # used before _mimax checks it
   half = 0.5 * obs_scale
-  return _mimax("gcrl", prior=priors.uniform_prior(-half, half, len(indices)),
-                posterior="identity", indices=indices, obs_scale=obs_scale, logits_clip=5.0,
-                spectral_norm=False, env_reward_multiplier=env_reward_multiplier,
-                normalize_obs=False, hidden=())
+  return _goal("gcrl", priors.uniform_prior(-half, half, len(indices)), indices, obs_scale,
+               env_reward_multiplier)
 
 
 def cdiayn(*, obs_indices: Indices = None, env: Any = None, obs_scale: float = 5.0,
@@ -275,10 +276,27 @@ def cdiayn(*, obs_indices: Indices = None, env: Any = None, obs_scale: float = 5
            spectral_iteration: str = "fixed") -> Objective:
   """Continuous DIAYN: z ~ U(-1, 1)^d, q(z|s) = N(MLP(s_idx), I) with a learned MLP."""
   indices = _need_indices("cdiayn", obs_indices, env)
-  return _mimax("cdiayn", prior=priors.uniform_prior(-1.0, 1.0, len(indices)),
-                posterior="gaussian", indices=indices, obs_scale=obs_scale, logits_clip=5.0,
-                spectral_norm=spectral_norm, env_reward_multiplier=env_reward_multiplier,
-                normalize_obs=normalize_obs, hidden=hidden, spectral_iteration=spectral_iteration)
+  dim = len(indices)
+  network = _learned("cdiayn", dim, obs_scale=obs_scale, logits_clip=5.0,
+                     spectral_norm=spectral_norm, normalize_obs=normalize_obs, hidden=hidden,
+                     spectral_iteration=spectral_iteration)
+  return mimax_objective("cdiayn", prior=priors.uniform_prior(-1.0, 1.0, dim),
+                posterior=posteriors.gaussian_posterior(dim, network), indices=indices,
+                obs_scale=obs_scale, env_reward_multiplier=env_reward_multiplier)
+
+
+def _skills(name: str, num_skills: int, indices, *, obs_scale, logits_clip, spectral_norm,
+            env_reward_multiplier, normalize_obs, hidden, spectral_iteration,
+            eval_indices=None) -> Objective:
+  """DIAYN-style: K one-hot skills and a learned categorical posterior."""
+  prior = priors.categorical_prior(num_skills)
+  network = _learned(name, prior.dim, obs_scale=obs_scale, logits_clip=logits_clip,
+                     spectral_norm=spectral_norm, normalize_obs=normalize_obs, hidden=hidden,
+                     spectral_iteration=spectral_iteration)
+  return mimax_objective(name, prior=prior,
+                posterior=posteriors.categorical_posterior(prior.dim, network, logits_clip),
+                indices=indices, obs_scale=obs_scale, env_reward_multiplier=env_reward_multiplier,
+                eval_indices=eval_indices)
 
 
 def diayn(*, num_skills: int = 8, obs_indices: Indices = None, env: Any = None,
@@ -288,10 +306,10 @@ def diayn(*, num_skills: int = 8, obs_indices: Indices = None, env: Any = None,
   """DIAYN (Eysenbach et al. 2019): K one-hot skills, q(z|s) = Cat(MLP(s_idx)) on chosen features;
   r = log softmax(clip(l - max l, -c))[z] + c, which is c - log K for an undecided discriminator."""
   indices = _need_indices("diayn", obs_indices, env)
-  return _mimax("diayn", prior=priors.categorical_prior(num_skills), posterior="categorical",
-                indices=indices, obs_scale=obs_scale, logits_clip=logits_clip,
-                spectral_norm=spectral_norm, env_reward_multiplier=env_reward_multiplier,
-                normalize_obs=normalize_obs, hidden=hidden, spectral_iteration=spectral_iteration)
+  return _skills("diayn", num_skills, indices, obs_scale=obs_scale, logits_clip=logits_clip,
+                 spectral_norm=spectral_norm, env_reward_multiplier=env_reward_multiplier,
+                 normalize_obs=normalize_obs, hidden=hidden,
+                 spectral_iteration=spectral_iteration)
 
 
 def diayn_full(*, num_skills: int = 8, obs_scale: float = 5.0, logits_clip: float = 5.0,
@@ -305,11 +323,10 @@ def diayn_full(*, num_skills: int = 8, obs_scale: float = 5.0, logits_clip: floa
   evaluation (MI, LGR) and plots look at, as in the paper.
   """
   indices = resolve_indices(obs_indices, env, who="diayn_full")
-  return _mimax("diayn_full", prior=priors.categorical_prior(num_skills),
-                posterior="categorical", indices=None, obs_scale=obs_scale,
-                logits_clip=logits_clip, spectral_norm=spectral_norm,
-                env_reward_multiplier=env_reward_multiplier, normalize_obs=normalize_obs,
-                hidden=hidden, spectral_iteration=spectral_iteration, eval_indices=indices)
+  return _skills("diayn_full", num_skills, None, obs_scale=obs_scale, logits_clip=logits_clip,
+                 spectral_norm=spectral_norm, env_reward_multiplier=env_reward_multiplier,
+                 normalize_obs=normalize_obs, hidden=hidden,
+                 spectral_iteration=spectral_iteration, eval_indices=indices)
 
 
 # ------------------------------------------------------------------------------------------------
@@ -328,38 +345,57 @@ def _default_target(name, target, indices, obs_scale, num_modes) -> Target:
   return target
 
 
-def _dmin(name: str, transform: Callable[[jax.Array], jax.Array] | None, *, target, obs_indices,
-          env, obs_scale: float, num_modes: int, include_action: bool, logits_clip: float,
-          spectral_norm: bool, gradient_penalty_weight: float, env_reward_multiplier: float,
-          normalize_obs: bool, balance_data: bool, hidden: Sequence[int],
-          clip_loss_logits: bool = True, spectral_iteration: str = "fixed") -> Objective:
+def _matched(name: str, *, target, obs_indices, env, obs_scale: float, num_modes: int,
+             include_action: bool):
+  """What every D-min objective shares: the matched features, the target, and ``disc_input(obs,
+  action) -> x``, the features (plus the action when ``include_action``)."""
   indices = resolve_indices(obs_indices, env, who=name)
   if indices is None:
     raise ValueError(f"{name}: give obs_indices (ints or a name such as 'vel_xy' with env=)")
+  _check_types(name, numbers=dict(obs_scale=obs_scale), flags=dict(include_action=include_action))
+  if not obs_scale > 0:
+    raise ValueError(f"{name}: obs_scale must be > 0, got {obs_scale}")
+  target = _default_target(name, target, indices, obs_scale, num_modes)
+  if not include_action and target.dim != len(indices):
+    raise ValueError(f"{name}: target samples have dimension {target.dim} but obs_indices has "
+                     f"{len(indices)}")
+
+  def disc_input(obs, action):
+    x = _select(obs, indices)
+    return jnp.concatenate([x, action]) if include_action else x
+
+  return indices, target, disc_input
+
+
+def adversarial_objective(name: str, transform: Callable[[jax.Array], jax.Array], *,
+                          target: Target | None = None, obs_indices: Indices = None,
+                          env: Any = None, obs_scale: float = 5.0, num_modes: int = 2,
+                          include_action: bool = False, logits_clip: float = 5.0,
+                          spectral_norm: bool = False, gradient_penalty_weight: float = 0.0,
+                          env_reward_multiplier: float = 0.0, normalize_obs: bool = False,
+                          balance_data: bool = True, hidden: Sequence[int] = (32, 32),
+                          clip_loss_logits: bool = True,
+                          spectral_iteration: str = "fixed") -> Objective:
+  """Composes a D-min objective from a discriminator D(x) = sigmoid(l), trained to tell target
+  samples (label 1) from the policy's (label 0), and a reward ``transform(l)`` of its clipped logit
+  (``gail`` uses ``blx.objectives.gail_reward``). The options are ``gail``'s."""
+  indices, target, disc_input = _matched(name, target=target, obs_indices=obs_indices, env=env,
+                                         obs_scale=obs_scale, num_modes=num_modes,
+                                         include_action=include_action)
   _check_options(name, logits_clip=logits_clip, obs_scale=obs_scale)
   _check_types(name, numbers=dict(env_reward_multiplier=env_reward_multiplier,
                                   gradient_penalty_weight=gradient_penalty_weight),
-               flags=dict(include_action=include_action, spectral_norm=spectral_norm,
-                          normalize_obs=normalize_obs, balance_data=balance_data,
-                          clip_loss_logits=clip_loss_logits), hidden=hidden)
+               flags=dict(spectral_norm=spectral_norm, normalize_obs=normalize_obs,
+                          balance_data=balance_data, clip_loss_logits=clip_loss_logits),
+               hidden=hidden)
   _check_spectral(name, spectral_iteration)
-  target = _default_target(name, target, indices, obs_scale, num_modes)
   if gradient_penalty_weight < 0:
     raise ValueError(f"{name}: gradient_penalty_weight must be >= 0, got {gradient_penalty_weight}")
   if gradient_penalty_weight > 0 and not balance_data:
     raise ValueError(f"{name}: gradient_penalty_weight > 0 interpolates policy and target samples "
                      "pairwise and needs balance_data=True")
-  expected = len(indices)
-  if not include_action and target.dim != expected:
-    raise ValueError(f"{name}: target samples have dimension {target.dim} but obs_indices has "
-                     f"{expected}")
   target_samples = jnp.asarray(target.samples, jnp.float32)
-  learned = transform is not None
-  disc = _Disc(1, hidden, spectral_norm, normalize_obs, spectral_iteration) if learned else None
-
-  def disc_input(obs, action):
-    x = _select(obs, indices)
-    return jnp.concatenate([x, action]) if include_action else x
+  disc = _Disc(1, hidden, spectral_norm, normalize_obs, spectral_iteration)
 
   def raw_logit(params, x):
     return disc.apply(params, x)[0]
@@ -370,25 +406,16 @@ def _dmin(name: str, transform: Callable[[jax.Array], jax.Array] | None, *, targ
 
   def init(key, obs_size):
     _check_indices(indices, obs_size, name)
-    return disc.init(key, target.dim) if learned else {}
+    return disc.init(key, target.dim)
 
-  if learned:
-    def reward(params, t: Transition):
-      x = disc_input(t.obs, t.action)
-      if x.shape != target_samples.shape[1:]:
-        raise ValueError(f"{name}: the discriminator input has size {x.shape[0]} but the target "
-                         f"samples have {target.dim} (include_action adds the action size)")
-      return transform(logit(params, x)) + env_reward_multiplier * t.env_reward
-  else:
-    offset = _mle_offset(target, len(indices), obs_scale)
-
-    def reward(params, t: Transition):
-      log_p = target.log_prob(disc_input(t.obs, t.action))
-      return dmin.mle_reward(log_p, offset=offset) + env_reward_multiplier * t.env_reward
+  def reward(params, t: Transition):
+    x = disc_input(t.obs, t.action)
+    if x.shape != target_samples.shape[1:]:
+      raise ValueError(f"{name}: the discriminator input has size {x.shape[0]} but the target "
+                       f"samples have {target.dim} (include_action adds the action size)")
+    return transform(logit(params, x)) + env_reward_multiplier * t.env_reward
 
   def loss(params, batch: Transition, key):
-    if not learned:
-      return jnp.zeros(()), {}
     x_policy = jax.vmap(disc_input)(batch.obs, batch.action)
     x_target = target_samples
     policy_key, target_key, gp_key = jax.random.split(key, 3)
@@ -419,9 +446,40 @@ def _dmin(name: str, transform: Callable[[jax.Array], jax.Array] | None, *, targ
   return Objective(
       init=init, sample_latent=lambda key: jnp.zeros((0,)), reward=reward, loss=loss,
       latent_size=0, conditions_policy=False, name=name,
-      post_update=post_update if learned and disc.has_post_update else None,
+      post_update=post_update if disc.has_post_update else None,
       spec=DminSpec(obs_indices=indices, obs_scale=float(obs_scale), target=target,
-                    include_action=include_action, logit=logit if learned else None))
+                    include_action=include_action, logit=logit))
+
+
+def mle(*, target: Target | None = None, obs_indices: Indices = None, env: Any = None,
+        obs_scale: float = 5.0, num_modes: int = 2, env_reward_multiplier: float = 0.0
+        ) -> Objective:
+  """MLE (oracle): r = log p*(s) + offset for a target with a density; nothing is learned.
+
+  The offset is -min log p* over the grid {-1, 0, 1}^d * obs_scale and the target samples
+  (Braxlines). Options as for ``gail`` where they apply: ``target``, ``obs_indices`` (with
+  ``env=``), ``obs_scale``, ``num_modes``, ``env_reward_multiplier``.
+  """
+  indices, target, disc_input = _matched("mle", target=target, obs_indices=obs_indices, env=env,
+                                         obs_scale=obs_scale, num_modes=num_modes,
+                                         include_action=False)
+  _check_types("mle", numbers=dict(env_reward_multiplier=env_reward_multiplier))
+  offset = _mle_offset(target, len(indices), obs_scale)
+
+  def init(key, obs_size):
+    _check_indices(indices, obs_size, "mle")
+    return {}
+
+  def reward(params, t: Transition):
+    log_p = target.log_prob(disc_input(t.obs, t.action))
+    return dmin.mle_reward(log_p, offset=offset) + env_reward_multiplier * t.env_reward
+
+  return Objective(
+      init=init, sample_latent=lambda key: jnp.zeros((0,)), reward=reward,
+      loss=lambda params, batch, key: (jnp.zeros(()), {}), latent_size=0, conditions_policy=False,
+      name="mle", post_update=None,
+      spec=DminSpec(obs_indices=indices, obs_scale=float(obs_scale), target=target,
+                    include_action=False, logit=None))
 
 
 def _mle_offset(target: Target, dim: int, obs_scale: float) -> float:
@@ -434,7 +492,7 @@ def _mle_offset(target: Target, dim: int, obs_scale: float) -> float:
   return float(-jnp.min(jax.vmap(target.log_prob)(points)))
 
 
-def _dmin_preset(name: str, transform_factory: Callable[[float], Callable] | None,
+def _dmin_preset(name: str, transform_factory: Callable[[float], Callable],
                  doc: str) -> Callable[..., Objective]:
   def preset(*, target: Target | None = None, obs_indices: Indices = None, env: Any = None,
              obs_scale: float = 5.0, num_modes: int = 2, include_action: bool = False,
@@ -443,18 +501,15 @@ def _dmin_preset(name: str, transform_factory: Callable[[float], Callable] | Non
              normalize_obs: bool = False, balance_data: bool = True,
              hidden: Sequence[int] = (32, 32), clip_loss_logits: bool = True,
              spectral_iteration: str = "fixed") -> Objective:
-    if transform_factory is None and (include_action or spectral_norm or normalize_obs
-                                      or gradient_penalty_weight):
-      raise ValueError("mle: the reward is the target's log-density; include_action, "
-                       "spectral_norm, normalize_obs and gradient_penalty_weight do not apply")
-    transform = transform_factory(logits_clip) if transform_factory else None
-    return _dmin(name, transform, target=target, obs_indices=obs_indices, env=env,
-                 obs_scale=obs_scale, num_modes=num_modes, include_action=include_action,
-                 logits_clip=logits_clip, spectral_norm=spectral_norm,
-                 gradient_penalty_weight=gradient_penalty_weight,
-                 env_reward_multiplier=env_reward_multiplier, normalize_obs=normalize_obs,
-                 balance_data=balance_data, hidden=hidden, clip_loss_logits=clip_loss_logits,
-                 spectral_iteration=spectral_iteration)
+    return adversarial_objective(name, transform_factory(logits_clip), target=target,
+                        obs_indices=obs_indices, env=env, obs_scale=obs_scale,
+                        num_modes=num_modes, include_action=include_action,
+                        logits_clip=logits_clip, spectral_norm=spectral_norm,
+                        gradient_penalty_weight=gradient_penalty_weight,
+                        env_reward_multiplier=env_reward_multiplier,
+                        normalize_obs=normalize_obs, balance_data=balance_data, hidden=hidden,
+                        clip_loss_logits=clip_loss_logits,
+                        spectral_iteration=spectral_iteration)
 
   preset.__name__ = preset.__qualname__ = name
   preset.__doc__ = doc + """
@@ -479,7 +534,6 @@ airl = _dmin_preset("airl", lambda c: lambda l: dmin.airl_reward(l, offset=c),
                     "AIRL: r = log D - log(1 - D) + c = l + c, non-negative for l in [-c, c].")
 fairl = _dmin_preset("fairl", lambda c: lambda l: dmin.fairl_reward(l, offset=c),
                      "FAIRL: r = -l e^l + c.")
-mle = _dmin_preset("mle", None, "MLE (oracle): r = log p*(s) + offset for a target with a density.")
 
 
 # ------------------------------------------------------------------------------------------------

@@ -71,6 +71,18 @@ def test_unknown_env_param_is_rejected():
     envs.create("pro_ant_run", legs=6)
 
 
+@pytest.mark.parametrize("params, message", [
+    (dict(target="abc"), r"env 'point_goal': parameter 'target' must be tuple, got 'abc' \(str\)"),
+    (dict(target=True), r"parameter 'target' must be tuple, got True"),
+])
+def test_env_param_of_the_wrong_type_is_named(params, message):
+  # A string would otherwise be split into characters and fail later as "could not convert 'a'".
+  with pytest.raises(ValueError, match=message):
+    envs.create("point_goal", **params)
+  with pytest.raises(ValueError, match=r"parameter 'num_legs' must be int, got 4.5"):
+    envs.create("pro_ant_run", num_legs=4.5)
+
+
 def test_bad_edit_path_names_the_missing_key():
   with pytest.raises(ValueError, match=r"no key 'cap9'.*\['agent1', 'cap1'\]"):
     envs.create("ant_push", edits={"components.cap9.pos": (0, 0, 0)})

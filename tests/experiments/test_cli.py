@@ -6,6 +6,7 @@ from __future__ import annotations
 import csv
 import json
 import os
+import shutil
 import subprocess
 import sys
 
@@ -167,6 +168,15 @@ def test_incompatible_or_existing_run_directories(trained, tmp_path, capsys):
   (old / "config.json").write_text("[1, 2]")   # valid JSON, not a run config
   assert cli.main(["eval", str(old)]) == 2
   assert "expected a JSON object (a blx run config), got a list" in capsys.readouterr().err
+  # A damaged checkpoint is called damaged (not "another config"); the file is left as it was.
+  damaged = tmp_path / "damaged"
+  shutil.copytree(trained, damaged)
+  npz = damaged / "checkpoint" / "checkpoint.npz"
+  npz.write_bytes(npz.read_bytes()[:1000])
+  assert cli.main(["eval", str(damaged)]) == 2
+  err = capsys.readouterr().err
+  assert "checkpoint.npz is damaged and cannot be read" in err and "another" not in err, err
+  assert len(npz.read_bytes()) == 1000
 
 
 def test_resume_reads_the_run_and_never_writes_on_a_contradiction(trained, tmp_path, capsys):

@@ -253,3 +253,45 @@ def test_dmin_loss_clips_logits_like_the_original_unless_asked(clip_loss_logits)
   # Binary cross-entropy, policy labelled 0 and target 1: mean softplus(l_pol) + mean softplus(-l_tgt).
   expected = jnp.mean(jax.nn.softplus(l_pol)) + jnp.mean(jax.nn.softplus(-l_tgt))
   np.testing.assert_allclose(value, expected, rtol=1e-5)
+
+
+def test_new_objectives_compose_from_a_prior_a_posterior_and_a_reward_transform():
+  # A goal-reaching objective over a 2-D box, built from the pieces rather than a preset: at the
+  # goal, log N(z; z, I) = -log 2 pi and the offset is log 2 pi + 4.5 d, so r = 9; one unit off in
+  # each dimension takes 1/2 ||1||^2 = 1 off.
+  reach = O.mimax_objective("reach", prior=O.uniform_prior(-1.0, 1.0, 2),
+                            posterior=O.identity_posterior(2), indices=(1, 2), obs_scale=2.0)
+  params = reach.init(jax.random.PRNGKey(0), 4)
+  z = jnp.array([0.5, -0.5])
+  at_goal = O.Transition(jnp.zeros(4), jnp.zeros(1), jnp.array([7.0, 0.5, -0.5, 7.0]),
+                         jnp.zeros(()), z)
+  np.testing.assert_allclose(reach.reward(params, at_goal), 9.0, rtol=1e-6)
+  off = at_goal._replace(next_obs=jnp.array([7.0, 1.5, 0.5, 7.0]))
+  np.testing.assert_allclose(reach.reward(params, off), 8.0, rtol=1e-6)
+  assert reach.loss(params, at_goal, None)[0] == 0.0  # nothing learned
+  # The same categorical posterior as DIAYN's, on a 3-skill prior: an untrained network gives the
+  # 3 skills nearly equal logits, so r is near the clip c minus log 3.
+  class Net:  # a fixed "network": logits = the first 3 features
+    has_post_update = False
+
+    def init(self, key, n):
+      return {}
+
+    def apply(self, params, x):
+      return x[:3]
+
+    def post_update(self, params, x):
+      return params
+
+  skills = O.mimax_objective("skills", prior=O.categorical_prior(3),
+                             posterior=O.categorical_posterior(3, Net(), logits_clip=5.0),
+                             indices=None, obs_scale=1.0)
+  t = O.Transition(jnp.zeros(3), jnp.zeros(1), jnp.zeros(3), jnp.zeros(()), jnp.eye(3)[1])
+  np.testing.assert_allclose(skills.reward({}, t), 5.0 - math.log(3), rtol=1e-6)
+  assert skills.spec.posterior == "categorical" and skills.spec.num_skills == 3
+  # A D-min objective with a reward transform of one's own: r = 2 l.
+  double = O.adversarial_objective("double", lambda l: 2.0 * l, obs_indices=(0,), obs_scale=8.0)
+  dparams = double.init(jax.random.PRNGKey(0), 2)
+  x = O.Transition(jnp.array([1.0, 0.0]), jnp.zeros(1), jnp.zeros(2), jnp.zeros(()), jnp.zeros(0))
+  np.testing.assert_allclose(double.reward(dparams, x), 2.0 * double.spec.logit(dparams, x.obs[:1]),
+                             rtol=1e-6)
