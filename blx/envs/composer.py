@@ -199,6 +199,8 @@ def compose(desc: Mapping[str, Any]) -> Scene:
       raise _err(f"edges.{key}.reward_fns", "must be a dict of {name: term desc}")
     if not isinstance(edge.get("extra_observers", []), (list, tuple)):
       raise _err(f"edges.{key}.extra_observers", "must be a list of observer dicts")
+    if GROUND in parts and (edge.get("extra_observers") or edge.get("reward_fns")):
+      raise _err(f"edges.{key}", "ground has no root; only collide_type may be set")
 
   xml = _render(specs, comps, edges, options, add_ground)
   return Scene(xml=xml, desc=desc, specs=specs, options=options)

@@ -110,8 +110,6 @@ class Env:
     for key in sorted(self.desc.get("edges", {}) or {}):
       edge = self.desc["edges"][key]
       first, second = key.split("__")
-      if "ground" in (first, second) and (edge.get("extra_observers") or edge.get("reward_fns")):
-        raise ValueError(f"edges.{key}: ground has no root; only collide_type may be set")
       owners = [self._handles.get(first), self._handles.get(second)]
       for i, obs in enumerate(edge.get("extra_observers", ())):
         pieces += edge_observers(key, *owners, obs, f"edges.{key}.extra_observers[{i}]")

@@ -55,6 +55,8 @@ def _with(**changes):
                                                        r"positive number, got inf"),
     (_with(global_options={"gravity": (0, 0, float("-inf"))}), r"gravity: expected 3 finite"),
     (_with(global_options={"substeps": 10**12}), r"substeps: must be an int in 1\.\.1000"),
+    (_with(edges={"agent1__ground": {"reward_fns": {"d": {"reward_type": "root_dist"}}}}),
+     r"edges.agent1__ground: ground has no root; only collide_type may be set"),
 ])
 def test_bad_desc_raises_naming_the_problem(desc, pattern):
   with pytest.raises(ValueError, match=pattern):
