@@ -53,7 +53,8 @@ def check_params(where: str, fn: Callable, params: Mapping[str, Any]) -> None:
     if isinstance(default, float) and isinstance(value, (tuple, list)):
       continue  # e.g. singleton size=(radius, length); the factory checks the form
     if isinstance(value, bool) and not isinstance(default, bool):
-      raise ValueError(f"{where}: parameter {key!r} must be {type(default).__name__}, got {value!r}")
+      raise ValueError(f"{where}: parameter {key!r} must be {type(default).__name__}, "
+                       f"got {value!r}")
     if not isinstance(value, expected):
       raise ValueError(
           f"{where}: parameter {key!r} must be {type(default).__name__}, got {value!r} "

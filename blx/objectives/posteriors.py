@@ -58,7 +58,8 @@ class Posterior(NamedTuple):
 def identity_posterior(dim: int) -> Posterior:
   """q(z | s) = N(s_idx, I): the features are the goal (GCRL); nothing is learned."""
   return Posterior(kind="identity", offset=mimax.gaussian_offset(dim), init=lambda key, n: {},
-                   out=lambda params, x: x, log_q=lambda z, mean: mimax.gaussian_log_q(z, mean, 1.0),
+                   out=lambda params, x: x,
+                   log_q=lambda z, mean: mimax.gaussian_log_q(z, mean, 1.0),
                    infer=lambda mean: mean)
 
 

@@ -38,7 +38,8 @@ from blx.objectives.targets import Target, multimode_gaussian
 from blx.options import check_names, keyword_names
 
 __all__ = ["gcrl", "fixed_gcrl", "cdiayn", "diayn", "diayn_full", "gail", "gail2", "airl", "fairl",
-           "mle", "task", "make", "list_objectives", "options_of", "resolve_indices"]
+           "mle", "task", "make", "list_objectives", "options_of", "resolve_indices",
+           "mimax_objective", "adversarial_objective"]
 
 Indices = Sequence[int] | str | Sequence[str] | None
 
@@ -175,7 +176,13 @@ def mimax_objective(name: str, *, prior: priors.Prior, posterior: Posterior,
   ``indices``: the observation dimensions q reads (None: all); ``eval_indices``: those evaluation
   looks at (default ``indices``); ``obs_scale``: the half-width of evaluation's histograms.
   """
-  _check_types(name, numbers=dict(env_reward_multiplier=env_reward_multiplier))
+  if not isinstance(posterior, Posterior):
+    raise ValueError(f"{name}: posterior must be a blx.objectives.Posterior (e.g. "
+                     f"identity_posterior(d)), got {type(posterior).__name__}")
+  _check_types(name, numbers=dict(env_reward_multiplier=env_reward_multiplier,
+                                  obs_scale=obs_scale))
+  if not obs_scale > 0:
+    raise ValueError(f"{name}: obs_scale must be > 0, got {obs_scale}")
   network = posterior.network
 
   def init(key, obs_size):
@@ -239,7 +246,8 @@ def _goal(name: str, prior: priors.Prior, indices, obs_scale: float,
   if len(indices) != prior.dim:
     raise ValueError(f"{name}: {len(indices)} obs_indices for a {prior.dim}-D latent")
   return mimax_objective(name, prior=prior, posterior=posteriors.identity_posterior(prior.dim),
-                indices=indices, obs_scale=obs_scale, env_reward_multiplier=env_reward_multiplier)
+                         indices=indices, obs_scale=obs_scale,
+                         env_reward_multiplier=env_reward_multiplier)
 
 
 def _need_indices(name, obs_indices, env):
@@ -255,7 +263,7 @@ def fixed_gcrl(*, obs_indices: Indices = None, env: Any = None, obs_scale: float
   """Goal-conditioned RL to one fixed goal z = obs_scale in every indexed dimension;
   r = 4.5 d - 1/2 ||z - s_idx||^2 + const normaliser terms (>= 0 within 3 of the goal)."""
   indices = _need_indices("fixed_gcrl", obs_indices, env)
-  _check_types("fixed_gcrl", numbers=dict(obs_scale=obs_scale))  # used before _mimax checks it
+  _check_types("fixed_gcrl", numbers=dict(obs_scale=obs_scale))  # used before mimax_objective
   return _goal("fixed_gcrl", priors.deterministic_prior(np.full(len(indices), obs_scale)),
                indices, obs_scale, env_reward_multiplier)
 
@@ -264,7 +272,7 @@ def gcrl(*, obs_indices: Indices = None, env: Any = None, obs_scale: float = 5.0
          env_reward_multiplier: float = 0.0) -> Objective:
   """Goal-conditioned RL: z ~ U(-obs_scale/2, obs_scale/2)^d, q(z|s) = N(s_idx, I)."""
   indices = _need_indices("gcrl", obs_indices, env)
-  _check_types("gcrl", numbers=dict(obs_scale=obs_scale))  # used before _mimax checks it
+  _check_types("gcrl", numbers=dict(obs_scale=obs_scale))  # used before mimax_objective
   half = 0.5 * obs_scale
   return _goal("gcrl", priors.uniform_prior(-half, half, len(indices)), indices, obs_scale,
                env_reward_multiplier)
@@ -281,8 +289,8 @@ def cdiayn(*, obs_indices: Indices = None, env: Any = None, obs_scale: float = 5
                      spectral_norm=spectral_norm, normalize_obs=normalize_obs, hidden=hidden,
                      spectral_iteration=spectral_iteration)
   return mimax_objective("cdiayn", prior=priors.uniform_prior(-1.0, 1.0, dim),
-                posterior=posteriors.gaussian_posterior(dim, network), indices=indices,
-                obs_scale=obs_scale, env_reward_multiplier=env_reward_multiplier)
+                         posterior=posteriors.gaussian_posterior(dim, network), indices=indices,
+                         obs_scale=obs_scale, env_reward_multiplier=env_reward_multiplier)
 
 
 def _skills(name: str, num_skills: int, indices, *, obs_scale, logits_clip, spectral_norm,
@@ -294,9 +302,10 @@ def _skills(name: str, num_skills: int, indices, *, obs_scale, logits_clip, spec
                      spectral_norm=spectral_norm, normalize_obs=normalize_obs, hidden=hidden,
                      spectral_iteration=spectral_iteration)
   return mimax_objective(name, prior=prior,
-                posterior=posteriors.categorical_posterior(prior.dim, network, logits_clip),
-                indices=indices, obs_scale=obs_scale, env_reward_multiplier=env_reward_multiplier,
-                eval_indices=eval_indices)
+                         posterior=posteriors.categorical_posterior(prior.dim, network,
+                                                                    logits_clip),
+                         indices=indices, obs_scale=obs_scale,
+                         env_reward_multiplier=env_reward_multiplier, eval_indices=eval_indices)
 
 
 def diayn(*, num_skills: int = 8, obs_indices: Indices = None, env: Any = None,
