@@ -27,3 +27,13 @@ def test_unknown_names_are_rejected_in_one_sentence(build, valid):
   with pytest.raises(ValueError) as info:
     build()
   assert re.search(SENTENCE.format(valid=valid), str(info.value)), str(info.value)
+
+
+def test_seeds_are_checked_once_for_train_the_cli_and_sweeps():
+  import numpy as np
+  assert training.check_seeds(np.arange(3)) == (0, 1, 2)  # numpy (and jax) integer scalars too
+  for seeds, message in ([[0, 0], "repeats a seed"], [[], "non-empty list"], ["01", "non-empty"],
+                         [[1.0], r"\[1.0\] are not seeds"], [[True], "are not seeds"],
+                         [[2**31], "0..2\\*\\*31 - 1"]):
+    with pytest.raises(ValueError, match=message):
+      training.check_seeds(seeds)

@@ -4,9 +4,8 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import operator
 from typing import Any
-
-import numpy as np
 
 from blx.options import check_names
 
@@ -123,13 +122,23 @@ def check_seeds(seeds: Any, where: str = "seeds") -> tuple[int, ...]:
   if isinstance(seeds, (str, bytes)) or not hasattr(seeds, "__len__") or not len(seeds):
     raise ValueError(f"{where}: expected a non-empty list of ints such as [0, 1, 2], got {seeds!r}")
   seeds = list(seeds)
-  bad = [s for s in seeds if not isinstance(s, (int, np.integer)) or isinstance(s, bool)
-         or not 0 <= s <= MAX_INT]
+
+  def as_seed(s):
+    if isinstance(s, bool) or isinstance(s, float):
+      return None
+    try:
+      value = operator.index(s)  # ints, numpy and jax integer scalars
+    except TypeError:
+      return None
+    return value if 0 <= value <= MAX_INT else None
+
+  values = [as_seed(s) for s in seeds]
+  bad = [s for s, v in zip(seeds, values) if v is None]
   if bad:
     raise ValueError(f"{where}: {bad} are not seeds; seeds are ints in 0..2**31 - 1")
-  if len(set(int(s) for s in seeds)) != len(seeds):
-    raise ValueError(f"{where}: {seeds} repeats a seed; each seed is one run, so seeds are distinct")
-  return tuple(int(s) for s in seeds)
+  if len(set(values)) != len(values):
+    raise ValueError(f"{where}: {values} repeats a seed; each seed is one run, so seeds are distinct")
+  return tuple(values)
 
 
 # Braxlines experiments/defaults.py (all: episode 1000, normalised observations, lr 3e-4, 2048 envs,
