@@ -151,17 +151,13 @@ def _resume_spec(args, directory: str):
           **{f"env_param:{k}": v for k, v in spec.env_params.items()}}
   flag = {"option": "--option", "config": "--config", "env_param": "--env-param"}
   for key, value in _given(args).items():
-    if key not in have or _jsonish(have[key]) != _jsonish(value):
+    if key not in have or runs.as_json(have[key]) != runs.as_json(value):
       group, _, name = key.partition(":")
       shown = f"{flag[group]} {name}={value!r}" if name else f"--{key} {value!r}"
       was = f"{have[key]!r}" if key in have else "not set"
       raise UsageError(f"--resume {directory}: {shown} contradicts the run, where it is {was}; "
                        "leave the flag out to continue the run as it was")
   return spec
-
-
-def _jsonish(value):
-  return json.loads(json.dumps(value, default=str))
 
 
 def cmd_train(args) -> int:

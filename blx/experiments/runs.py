@@ -113,6 +113,17 @@ def json_default(x):
   raise TypeError(f"cannot write {type(x).__name__} to config.json")
 
 
+def as_json(x):
+  """``x`` as it reads back from config.json, for comparing settings with a run's (a value that
+  config.json cannot hold compares by its text)."""
+  def default(v):
+    try:
+      return json_default(v)
+    except TypeError:
+      return str(v)
+  return json.loads(json.dumps(x, default=default))
+
+
 def read_spec(directory: str) -> RunSpec:
   path = os.path.join(directory, "config.json")
   if not os.path.isdir(directory):

@@ -121,14 +121,13 @@ def _check_same_point(name: str, directory: str, run_spec: runs.RunSpec, desc: d
   """A point's directory is reused only for the same definition: env (its full desc, so a change
   of the library's bodies counts), objective and options, PPO config and steps, seeds."""
   old = runs.read_spec(directory)
-  as_json = lambda x: json.loads(json.dumps(x, default=runs.json_default))
   pairs = {"env": (old.env, run_spec.env), "objective": (old.objective, run_spec.objective),
            "options": (old.objective_options, run_spec.objective_options),
            "config": (old.ppo, run_spec.ppo), "seeds": (list(old.seeds), list(run_spec.seeds)),
            "env_params": (old.env_params, run_spec.env_params), "desc": (old.desc, desc)}
-  changed = [key for key, (a, b) in pairs.items() if as_json(a) != as_json(b)]
+  changed = [key for key, (a, b) in pairs.items() if runs.as_json(a) != runs.as_json(b)]
   if changed:
-    detail = "; ".join(f"{k}: {as_json(pairs[k][0])!r} -> {as_json(pairs[k][1])!r}"
+    detail = "; ".join(f"{k}: {runs.as_json(pairs[k][0])!r} -> {runs.as_json(pairs[k][1])!r}"
                        for k in changed if k != "desc")
     if "desc" in changed:
       detail = (detail + "; " if detail else "") + "the env's desc differs (the spec's env " \

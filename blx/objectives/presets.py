@@ -110,12 +110,15 @@ def _check_spectral(who: str, spectral_iteration: Any) -> None:
                      f"are {list(SPECTRAL_ITERATIONS)}")
 
 
-def _check_options(who: str, *, logits_clip: float, obs_scale: float) -> None:
-  _check_types(who, numbers=dict(logits_clip=logits_clip, obs_scale=obs_scale))
-  if not logits_clip > 0:
-    raise ValueError(f"{who}: logits_clip must be > 0, got {logits_clip}")
-  if not obs_scale > 0:
-    raise ValueError(f"{who}: obs_scale must be > 0, got {obs_scale}")
+def _check_options(who: str, *, logits_clip: float | None = None,
+                   obs_scale: float | None = None) -> None:
+  """``logits_clip`` and ``obs_scale``, where given, must be numbers > 0."""
+  given = {k: v for k, v in dict(logits_clip=logits_clip, obs_scale=obs_scale).items()
+           if v is not None}
+  _check_types(who, numbers=given)
+  for name, value in given.items():
+    if not value > 0:
+      raise ValueError(f"{who}: {name} must be > 0, got {value}")
 
 
 class _Disc:
@@ -179,10 +182,8 @@ def mimax_objective(name: str, *, prior: priors.Prior, posterior: Posterior,
   if not isinstance(posterior, Posterior):
     raise ValueError(f"{name}: posterior must be a blx.objectives.Posterior (e.g. "
                      f"identity_posterior(d)), got {type(posterior).__name__}")
-  _check_types(name, numbers=dict(env_reward_multiplier=env_reward_multiplier,
-                                  obs_scale=obs_scale))
-  if not obs_scale > 0:
-    raise ValueError(f"{name}: obs_scale must be > 0, got {obs_scale}")
+  _check_types(name, numbers=dict(env_reward_multiplier=env_reward_multiplier))
+  _check_options(name, obs_scale=obs_scale)
   network = posterior.network
 
   def init(key, obs_size):
@@ -229,10 +230,11 @@ def mimax_objective(name: str, *, prior: priors.Prior, posterior: Posterior,
                      posterior_out=posterior_out, infer_latent=infer_latent, log_q=log_q))
 
 
-def _learned(name: str, dim: int, *, obs_scale: float, logits_clip: float, spectral_norm: bool,
+def _learned(name: str, dim: int, *, logits_clip: float, spectral_norm: bool,
              normalize_obs: bool, hidden: Sequence[int], spectral_iteration: str) -> _Disc:
-  """The checked discriminator network of a learned posterior."""
-  _check_options(name, logits_clip=logits_clip, obs_scale=obs_scale)
+  """The checked discriminator network of a learned posterior (``mimax_objective`` checks the
+  rest)."""
+  _check_options(name, logits_clip=logits_clip)
   _check_types(name, flags=dict(spectral_norm=spectral_norm, normalize_obs=normalize_obs),
                hidden=hidden)
   _check_spectral(name, spectral_iteration)
@@ -242,7 +244,7 @@ def _learned(name: str, dim: int, *, obs_scale: float, logits_clip: float, spect
 def _goal(name: str, prior: priors.Prior, indices, obs_scale: float,
           env_reward_multiplier: float) -> Objective:
   """GCRL-style: the features are the goal, q(z | s) = N(s_idx, I)."""
-  _check_options(name, logits_clip=5.0, obs_scale=obs_scale)
+  _check_options(name, obs_scale=obs_scale)
   if len(indices) != prior.dim:
     raise ValueError(f"{name}: {len(indices)} obs_indices for a {prior.dim}-D latent")
   return mimax_objective(name, prior=prior, posterior=posteriors.identity_posterior(prior.dim),
@@ -285,7 +287,7 @@ def cdiayn(*, obs_indices: Indices = None, env: Any = None, obs_scale: float = 5
   """Continuous DIAYN: z ~ U(-1, 1)^d, q(z|s) = N(MLP(s_idx), I) with a learned MLP."""
   indices = _need_indices("cdiayn", obs_indices, env)
   dim = len(indices)
-  network = _learned("cdiayn", dim, obs_scale=obs_scale, logits_clip=5.0,
+  network = _learned("cdiayn", dim, logits_clip=5.0,
                      spectral_norm=spectral_norm, normalize_obs=normalize_obs, hidden=hidden,
                      spectral_iteration=spectral_iteration)
   return mimax_objective("cdiayn", prior=priors.uniform_prior(-1.0, 1.0, dim),
@@ -298,7 +300,7 @@ def _skills(name: str, num_skills: int, indices, *, obs_scale, logits_clip, spec
             eval_indices=None) -> Objective:
   """DIAYN-style: K one-hot skills and a learned categorical posterior."""
   prior = priors.categorical_prior(num_skills)
-  network = _learned(name, prior.dim, obs_scale=obs_scale, logits_clip=logits_clip,
+  network = _learned(name, prior.dim, logits_clip=logits_clip,
                      spectral_norm=spectral_norm, normalize_obs=normalize_obs, hidden=hidden,
                      spectral_iteration=spectral_iteration)
   return mimax_objective(name, prior=prior,
@@ -361,9 +363,8 @@ def _matched(name: str, *, target, obs_indices, env, obs_scale: float, num_modes
   indices = resolve_indices(obs_indices, env, who=name)
   if indices is None:
     raise ValueError(f"{name}: give obs_indices (ints or a name such as 'vel_xy' with env=)")
-  _check_types(name, numbers=dict(obs_scale=obs_scale), flags=dict(include_action=include_action))
-  if not obs_scale > 0:
-    raise ValueError(f"{name}: obs_scale must be > 0, got {obs_scale}")
+  _check_types(name, flags=dict(include_action=include_action))
+  _check_options(name, obs_scale=obs_scale)
   target = _default_target(name, target, indices, obs_scale, num_modes)
   if not include_action and target.dim != len(indices):
     raise ValueError(f"{name}: target samples have dimension {target.dim} but obs_indices has "
@@ -391,7 +392,7 @@ def adversarial_objective(name: str, transform: Callable[[jax.Array], jax.Array]
   indices, target, disc_input = _matched(name, target=target, obs_indices=obs_indices, env=env,
                                          obs_scale=obs_scale, num_modes=num_modes,
                                          include_action=include_action)
-  _check_options(name, logits_clip=logits_clip, obs_scale=obs_scale)
+  _check_options(name, logits_clip=logits_clip)  # obs_scale: checked in _matched
   _check_types(name, numbers=dict(env_reward_multiplier=env_reward_multiplier,
                                   gradient_penalty_weight=gradient_penalty_weight),
                flags=dict(spectral_norm=spectral_norm, normalize_obs=normalize_obs,

@@ -124,7 +124,7 @@ def check_seeds(seeds: Any, where: str = "seeds") -> tuple[int, ...]:
   seeds = list(seeds)
 
   def as_seed(s):
-    if isinstance(s, bool) or isinstance(s, float):
+    if isinstance(s, bool):  # operator.index takes True as 1
       return None
     try:
       value = operator.index(s)  # ints, numpy and jax integer scalars
