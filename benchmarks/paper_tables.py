@@ -2,11 +2,16 @@
 
     python benchmarks/paper_tables.py [--seeds 10] [--only gcrl|mimax|dmin] [--objective diayn]
                                       [--collect] [--out sweeps/paper] [--env-edits JSON]
+                                      [--config JSON] [--options JSON] [--steps N] [--eval-metrics]
     python benchmarks/paper_tables.py --compare DIR   # every DIR/**/eval.json against the paper
 
 ``--objective`` trains only that algorithm's point (one process per GPU:
 ``CUDA_VISIBLE_DEVICES=i python benchmarks/paper_tables.py --objective NAME &`` for each), and
-``--collect`` then gathers every evaluated point into the tables without training.
+``--collect`` then gathers every evaluated point into the tables without training. ``--env-edits``,
+``--config`` (PPO settings over the ant row), ``--options`` (objective options over the row's, e.g.
+``'{"target_seed": 3}'``) and ``--steps`` are for ablations: a row trained with any of them is not
+the paper's protocol. ``--eval-metrics`` also logs the paper's metrics at every evaluation during
+training (e.g. D-min's mode shares), at the cost of a quick evaluation each time.
 
 MI-max: gcrl, diayn, cdiayn, diayn_full on the ant's xy velocity, obs_scale 5, spectral norm on;
 D-min: gail, gail2, airl, mle to the bimodal xy-velocity target (modes (+-4, 0), std 0.8), obs_scale
@@ -86,17 +91,20 @@ def compare(directory: str) -> str:
   return "\n".join(rows)
 
 
-def specs(seeds: int, edits: dict | None = None) -> dict:
-  common = dict(env="ant", seeds=list(range(seeds)), steps=60_000_000,
-                env_params=dict(edits=edits) if edits else {})
+def specs(seeds: int, edits: dict | None = None, config: dict | None = None,
+          steps: int = 60_000_000, options: dict | None = None) -> dict:
+  common = dict(env="ant", seeds=list(range(seeds)), steps=steps,
+                env_params=dict(edits=edits) if edits else {}, config=dict(config or {}))
+  over = dict(options or {})
   return {
       # gcrl learns no discriminator, so spectral norm is not one of its options.
       "gcrl": dict(name="paper_gcrl_ant", objective=["gcrl"],
-                   options=dict(obs_indices="vel", obs_scale=5.0), **common),
+                   options={"obs_indices": "vel", "obs_scale": 5.0, **over}, **common),
       "mimax": dict(name="paper_mimax_ant", objective=["diayn", "cdiayn", "diayn_full"],
-                    options=dict(obs_indices="vel", obs_scale=5.0, spectral_norm=True), **common),
+                    options={"obs_indices": "vel", "obs_scale": 5.0, "spectral_norm": True, **over},
+                    **common),
       "dmin": dict(name="paper_dmin_ant", objective=["gail", "gail2", "airl", "mle"],
-                   options=dict(obs_indices="vel", obs_scale=8.0), **common),
+                   options={"obs_indices": "vel", "obs_scale": 8.0, **over}, **common),
   }
 
 
@@ -110,6 +118,16 @@ def main():
   parser.add_argument("--env-edits", default=None, metavar="JSON",
                       help="edits of the ant's desc for an ablation, e.g. "
                            "'{\"global_options\": {\"timestep\": 0.005, \"substeps\": 10}}'")
+  parser.add_argument("--config", default=None, metavar="JSON",
+                      help="PPO settings over the ant row for an ablation, e.g. "
+                           "'{\"normalize_advantage\": true}'")
+  parser.add_argument("--options", default=None, metavar="JSON",
+                      help="objective options over the row's for an ablation, e.g. "
+                           "'{\"target_seed\": 3}'")
+  parser.add_argument("--steps", type=int, default=60_000_000,
+                      help="env steps per seed (the paper's: 60 M; fewer only for a diagnosis)")
+  parser.add_argument("--eval-metrics", action="store_true",
+                      help="log the paper's metrics at every evaluation during training")
   parser.add_argument("--compare", default=None, metavar="DIR",
                       help="only print the verdicts for the eval.json files under DIR")
   args = parser.parse_args()
@@ -125,13 +143,15 @@ def main():
   elif args.objective:
     select = lambda name, run_spec: run_spec.objective == args.objective
   edits = json.loads(args.env_edits) if args.env_edits else None
-  for family, spec in specs(args.seeds, edits).items():
+  config = json.loads(args.config) if args.config else None
+  options = json.loads(args.options) if args.options else None
+  for family, spec in specs(args.seeds, edits, config, args.steps, options).items():
     if args.only and family != args.only:
       continue
     if args.objective and args.objective not in spec["objective"]:
       continue
     out = os.path.join(args.out, family)
-    sweep.run_sweep(spec, out, select=select)
+    sweep.run_sweep(spec, out, select=select, eval_metrics=args.eval_metrics)
     print(open(os.path.join(out, "summary.md")).read())
     print(compare(out))
 

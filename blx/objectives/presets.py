@@ -344,20 +344,26 @@ def diayn_full(*, num_skills: int = 8, obs_scale: float = 5.0, logits_clip: floa
 # D-min
 
 
-def _default_target(name, target, indices, obs_scale, num_modes) -> Target:
+def _default_target(name, target, indices, obs_scale, num_modes, target_seed) -> Target:
+  if isinstance(target_seed, bool) or not isinstance(target_seed, (int, np.integer)) \
+      or target_seed < 0:
+    raise ValueError(f"{name}: target_seed must be an int >= 0, got {target_seed!r}")
   if target is None:
     if len(indices) not in (1, 2):
       raise ValueError(f"{name}: the default target is a {num_modes}-mode Gaussian in 1 or 2 "
                        f"dimensions, but obs_indices has {len(indices)}; pass target=")
-    return multimode_gaussian(num_modes, scale=obs_scale, dim=len(indices))
+    return multimode_gaussian(num_modes, scale=obs_scale, dim=len(indices), seed=int(target_seed))
   if not isinstance(target, Target):
     raise ValueError(f"{name}: target must be a blx.objectives.Target (multimode_gaussian(...) or "
                      f"target_from_samples(...)), got {type(target).__name__}")
+  if target_seed != 0:
+    raise ValueError(f"{name}: target_seed={target_seed!r} draws the default target's samples; "
+                     "with target= given it would be ignored, so give one or the other")
   return target
 
 
 def _matched(name: str, *, target, obs_indices, env, obs_scale: float, num_modes: int,
-             include_action: bool):
+             include_action: bool, target_seed: int = 0):
   """What every D-min objective shares: the matched features, the target, and ``disc_input(obs,
   action) -> x``, the features (plus the action when ``include_action``)."""
   indices = resolve_indices(obs_indices, env, who=name)
@@ -365,7 +371,7 @@ def _matched(name: str, *, target, obs_indices, env, obs_scale: float, num_modes
     raise ValueError(f"{name}: give obs_indices (ints or a name such as 'vel_xy' with env=)")
   _check_types(name, flags=dict(include_action=include_action))
   _check_options(name, obs_scale=obs_scale)
-  target = _default_target(name, target, indices, obs_scale, num_modes)
+  target = _default_target(name, target, indices, obs_scale, num_modes, target_seed)
   if not include_action and target.dim != len(indices):
     raise ValueError(f"{name}: target samples have dimension {target.dim} but obs_indices has "
                      f"{len(indices)}")
@@ -385,13 +391,13 @@ def adversarial_objective(name: str, transform: Callable[[jax.Array], jax.Array]
                           env_reward_multiplier: float = 0.0, normalize_obs: bool = False,
                           balance_data: bool = True, hidden: Sequence[int] = (32, 32),
                           clip_loss_logits: bool = True,
-                          spectral_iteration: str = "fixed") -> Objective:
+                          spectral_iteration: str = "fixed", target_seed: int = 0) -> Objective:
   """Composes a D-min objective from a discriminator D(x) = sigmoid(l), trained to tell target
   samples (label 1) from the policy's (label 0), and a reward ``transform(l)`` of its clipped logit
   (``gail`` uses ``blx.objectives.gail_reward``). The options are ``gail``'s."""
   indices, target, disc_input = _matched(name, target=target, obs_indices=obs_indices, env=env,
                                          obs_scale=obs_scale, num_modes=num_modes,
-                                         include_action=include_action)
+                                         include_action=include_action, target_seed=target_seed)
   _check_options(name, logits_clip=logits_clip)  # obs_scale: checked in _matched
   _check_types(name, numbers=dict(env_reward_multiplier=env_reward_multiplier,
                                   gradient_penalty_weight=gradient_penalty_weight),
@@ -462,17 +468,17 @@ def adversarial_objective(name: str, transform: Callable[[jax.Array], jax.Array]
 
 
 def mle(*, target: Target | None = None, obs_indices: Indices = None, env: Any = None,
-        obs_scale: float = 5.0, num_modes: int = 2, env_reward_multiplier: float = 0.0
-        ) -> Objective:
+        obs_scale: float = 5.0, num_modes: int = 2, env_reward_multiplier: float = 0.0,
+        target_seed: int = 0) -> Objective:
   """MLE (oracle): r = log p*(s) + offset for a target with a density; nothing is learned.
 
   The offset is -min log p* over the grid {-1, 0, 1}^d * obs_scale and the target samples
   (Braxlines). Options as for ``gail`` where they apply: ``target``, ``obs_indices`` (with
-  ``env=``), ``obs_scale``, ``num_modes``, ``env_reward_multiplier``.
+  ``env=``), ``obs_scale``, ``num_modes``, ``env_reward_multiplier``, ``target_seed``.
   """
   indices, target, disc_input = _matched("mle", target=target, obs_indices=obs_indices, env=env,
                                          obs_scale=obs_scale, num_modes=num_modes,
-                                         include_action=False)
+                                         include_action=False, target_seed=target_seed)
   _check_types("mle", numbers=dict(env_reward_multiplier=env_reward_multiplier))
   offset = _mle_offset(target, len(indices), obs_scale)
 
@@ -510,7 +516,7 @@ def _dmin_preset(name: str, transform_factory: Callable[[float], Callable],
              gradient_penalty_weight: float = 0.0, env_reward_multiplier: float = 0.0,
              normalize_obs: bool = False, balance_data: bool = True,
              hidden: Sequence[int] = (32, 32), clip_loss_logits: bool = True,
-             spectral_iteration: str = "fixed") -> Objective:
+             spectral_iteration: str = "fixed", target_seed: int = 0) -> Objective:
     return adversarial_objective(name, transform_factory(logits_clip), target=target,
                         obs_indices=obs_indices, env=env, obs_scale=obs_scale,
                         num_modes=num_modes, include_action=include_action,
@@ -519,7 +525,7 @@ def _dmin_preset(name: str, transform_factory: Callable[[float], Callable],
                         env_reward_multiplier=env_reward_multiplier,
                         normalize_obs=normalize_obs, balance_data=balance_data, hidden=hidden,
                         clip_loss_logits=clip_loss_logits,
-                        spectral_iteration=spectral_iteration)
+                        spectral_iteration=spectral_iteration, target_seed=target_seed)
 
   preset.__name__ = preset.__qualname__ = name
   preset.__doc__ = doc + """
@@ -531,7 +537,9 @@ def _dmin_preset(name: str, transform_factory: Callable[[float], Callable],
   the discriminator input), ``balance_data`` (subsample both sets to the smaller size),
   ``clip_loss_logits`` (default True, Braxlines: the loss sees the logit clipped to +-c; False
   trains on the raw logit), ``spectral_iteration`` ("fixed", Braxlines: one power iteration per
-  call from the initial vector; "persistent": the vector is carried across SGD steps).
+  call from the initial vector; "persistent": the vector is carried across SGD steps),
+  ``target_seed`` (default 0: the PRNG seed of the default target's 250 samples, drawn once; the
+  draw is not balanced between modes, e.g. seed 0 puts 131 of 250 at (+4, 0) for the ant).
   """
   return preset
 

@@ -103,6 +103,21 @@ def test_preset_defaults_follow_braxlines():
                              rtol=0.1)  # modes (+-4, 0)
 
 
+def test_target_seed_draws_the_default_targets_samples():
+  """The seed picks which 250 samples stand for the target: seed 0 puts 131 at (+4, 0), seed 3
+  puts 120 there (more at (-4, 0)); the same seed gives the same samples, for mle too."""
+  def at_plus(objective):
+    return int((np.asarray(objective.spec.target.samples)[:, 0] > 0).sum())
+  assert at_plus(objectives.gail(obs_indices=(2, 3), obs_scale=8.0)) == 131
+  assert at_plus(objectives.gail(obs_indices=(2, 3), obs_scale=8.0, target_seed=3)) == 120
+  assert at_plus(objectives.mle(obs_indices=(2, 3), obs_scale=8.0, target_seed=3)) == 120
+  with pytest.raises(ValueError, match="target_seed must be an int >= 0, got '3'"):
+    objectives.airl(obs_indices=(2, 3), target_seed="3")
+  with pytest.raises(ValueError, match="target_seed=2 draws the default.*ignored"):
+    objectives.gail(obs_indices=(0, 1), target_seed=2,
+                    target=objectives.multimode_gaussian(2, scale=4, dim=2))
+
+
 def test_option_errors_name_the_problem():
   with pytest.raises(ValueError, match="unknown objective 'dayn'.*'diayn'"):
     objectives.make("dayn")
