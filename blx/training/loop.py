@@ -105,16 +105,31 @@ def train(env: Any, objective: Objective, config: PPOConfig, *, seeds: Sequence[
   total = trainer.num_chunks * trainer.iterations_per_chunk * config.env_steps_per_iteration
   t0 = time.time()
   steps0 = start_chunk * trainer.iterations_per_chunk * config.env_steps_per_iteration
+
+  def dispatch(state, chunk):
+    """Queues chunk ``chunk`` after ``state`` and the evaluations of its result on the device
+    without waiting for them (JAX dispatches asynchronously)."""
+    state, metrics = chunk_fn(state)
+    evals = eval_fn(state, jax.vmap(jax.random.fold_in, (0, None))(eval_keys, chunk))
+    extra = None
+    if extra_eval_fn is not None:
+      extra = extra_eval_fn(state, jax.vmap(jax.random.fold_in, (0, None))(eval_keys,
+                                                                           1_000_003 + chunk))
+    return state, metrics, evals, extra
+
   try:
+    pending = dispatch(state, start_chunk) if start_chunk < trainer.num_chunks else None
     for chunk in range(start_chunk, trainer.num_chunks):
-      state, metrics = chunk_fn(state)
+      state, metrics, evals, extra = pending
+      # The next chunk is queued before the host waits for this one's results, so the device
+      # trains on while the host checks, checkpoints and reports. A chunk that fails the finite
+      # check raises below; the queued chunk after it is then simply dropped.
+      pending = dispatch(state, chunk + 1) if chunk + 1 < trainer.num_chunks else None
       metrics = jax.device_get(metrics)
       _check_finite(metrics, chunk * trainer.iterations_per_chunk, seeds, checkpoint_dir)
-      evals = jax.device_get(eval_fn(state, jax.vmap(jax.random.fold_in, (0, None))(eval_keys,
-                                                                                     chunk)))
-      if extra_eval_fn is not None:
-        extra_keys = jax.vmap(jax.random.fold_in, (0, None))(eval_keys, 1_000_003 + chunk)
-        evals = {**evals, **jax.device_get(extra_eval_fn(state, extra_keys))}
+      evals = jax.device_get(evals)
+      if extra is not None:
+        evals = {**evals, **jax.device_get(extra)}
       env_steps = float(np.asarray(state.env_steps)[0])
       elapsed = time.time() - t0
       rate = (env_steps - steps0) / max(elapsed, 1e-9)
