@@ -27,8 +27,25 @@ def _pyplot():
   return plt
 
 
-def training_curves(history: list[dict], path: str) -> list[str]:
-  """A grid of curves (mean over seeds, band = min..max) against env steps; returns the keys."""
+def curve_titles(keys, objective) -> dict[str, str]:
+  """Panel titles: the key, and for ``eval/mode_share/k`` of a D-min objective the mode it counts
+  (``eval/mode_share/0: nearest (4, 0)``), from the target's means."""
+  means = getattr(getattr(getattr(objective, "spec", None), "target", None), "means", None)
+  titles = {}
+  for key in keys:
+    match = re.match(r"^eval/(episode_)?mode_share/(\d+)$", key)
+    if match and means is not None and int(match.group(2)) < len(means):
+      mode = ", ".join(f"{v:g}" for v in np.round(np.asarray(means[int(match.group(2))]), 2) + 0.0)
+      titles[key] = f"{key}: nearest ({mode})"
+    else:
+      titles[key] = key
+  return titles
+
+
+def training_curves(history: list[dict], path: str, *, titles: dict[str, str] | None = None
+                    ) -> list[str]:
+  """A grid of curves (mean over seeds, band = min..max) against env steps; returns the keys.
+  ``titles`` replaces a panel's title (default: its key)."""
   plt = _pyplot()
   keys = [k for p in CURVE_PATTERNS for k in (history[0] if history else {}) if re.match(p, k)]
   keys = list(dict.fromkeys(keys))
@@ -41,7 +58,7 @@ def training_curves(history: list[dict], path: str) -> list[str]:
     ax.plot(steps, values.mean(1), color="C0")
     if values.shape[1] > 1:
       ax.fill_between(steps, values.min(1), values.max(1), color="C0", alpha=0.2)
-    ax.set_title(key, fontsize=9)
+    ax.set_title((titles or {}).get(key, key), fontsize=9)
     ax.set_xlabel("env steps", fontsize=8)
     ax.tick_params(labelsize=7)
   for ax in list(axes.flat)[len(keys):]:
@@ -165,7 +182,7 @@ def write_all(run, history: list[dict], *, seed_index: int = 0, key_seed: int = 
   written = []
   if history:
     path = os.path.join(out_dir, "training_curves.png")
-    training_curves(history, path)
+    training_curves(history, path, titles=curve_titles(history[0], run.objective))
     written.append(path)
   if run.params is None:
     return written
