@@ -43,7 +43,7 @@ def time_to_mi(steps: int, num_envs: int) -> dict:
   config = training.ppo_defaults("ant", num_timesteps=steps, num_envs=num_envs,
                                  batch_size=num_envs // 2, num_evals=20)
   evaluator = metrics.mimax_evaluator(env, obj, num_latents=8, episodes_per_latent=10,
-                                      episode_length=1000, last_steps=500, num_goals=10)
+                                      last_steps=500, num_goals=10)
   rows = []
   t0 = time.perf_counter()
 

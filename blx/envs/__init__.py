@@ -6,12 +6,14 @@ from blx.envs.composer import GLOBAL_OPTIONS, Scene, apply_edits, compose
 from blx.envs.env import Env, State
 from blx.envs.registry import create, env_params, get_desc, list_envs, register_env
 from blx.envs.rollout import alive_before, rollout
-from blx.envs.wrappers import action_repeat, auto_reset, episode, unwrap
+from blx.envs.wrappers import (action_repeat, auto_reset, episode, episode_steps, resets_itself,
+                               unwrap)
 
 __all__ = [
     "ComponentSpec", "Termination", "list_components", "register_component",
     "GLOBAL_OPTIONS", "Scene", "apply_edits", "compose",
     "Env", "State",
     "create", "env_params", "get_desc", "list_envs", "register_env",
-    "action_repeat", "auto_reset", "episode", "unwrap", "rollout", "alive_before",
+    "action_repeat", "auto_reset", "episode", "episode_steps", "resets_itself", "unwrap",
+    "rollout", "alive_before",
 ]

@@ -107,8 +107,8 @@ def ant_chase():
   )
 
 
-register_env("point", point)
-register_env("point_goal", point_goal)
+register_env("point", point, episode_length=50)
+register_env("point_goal", point_goal, episode_length=50)
 register_env("ant", lambda: _plain("ant", forward=1.0, healthy=1.0, control=0.5,
                                    options=ANT_OPTIONS))
 register_env("humanoid", lambda: _plain("humanoid", forward=1.25, healthy=5.0, control=0.01,

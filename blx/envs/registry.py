@@ -11,14 +11,19 @@ from blx.envs.composer import apply_edits
 from blx.envs.env import Env
 from blx.options import check_params
 
-__all__ = ["create", "list_envs", "register_env", "get_desc"]
+__all__ = ["create", "list_envs", "register_env", "get_desc", "episode_length", "env_params"]
 
 Desc = Mapping[str, Any]
 _ENVS: dict[str, Desc | Callable[..., Desc]] = {}
+_EPISODE_LENGTHS: dict[str, int] = {}
+DEFAULT_EPISODE_LENGTH = 1000  # Braxlines' episodes
+_REGISTERED = object()  # create's default: the env's registered episode length
 
 
-def register_env(name: str, desc_or_factory: Desc | Callable[..., Desc]) -> None:
-  """Registers a desc, or a factory ``(**params) -> desc``, under ``name`` (fails if taken)."""
+def register_env(name: str, desc_or_factory: Desc | Callable[..., Desc], *,
+                 episode_length: int = DEFAULT_EPISODE_LENGTH) -> None:
+  """Registers a desc, or a factory ``(**params) -> desc``, under ``name`` (fails if taken), with
+  the episode length ``create`` gives it by default."""
   if not isinstance(name, str) or not name:
     raise ValueError(f"env name must be a non-empty string, got {name!r}")
   if name in _ENVS:
@@ -26,7 +31,17 @@ def register_env(name: str, desc_or_factory: Desc | Callable[..., Desc]) -> None
   if not (callable(desc_or_factory) or isinstance(desc_or_factory, Mapping)):
     raise ValueError(f"register_env({name!r}): expected a desc dict or a factory, got "
                      f"{type(desc_or_factory).__name__}")
+  if not isinstance(episode_length, int) or isinstance(episode_length, bool) or episode_length < 1:
+    raise ValueError(f"register_env({name!r}): episode_length must be a positive int, got "
+                     f"{episode_length!r}")
   _ENVS[name] = desc_or_factory
+  _EPISODE_LENGTHS[name] = episode_length
+
+
+def episode_length(name: str) -> int:
+  """The episode length ``create(name)`` gives the env by default."""
+  _lookup(name)
+  return _EPISODE_LENGTHS[name]
 
 
 def list_envs() -> list[str]:
@@ -86,7 +101,7 @@ def get_desc(name: str | None = None, *, desc: Desc | Callable[..., Desc] | None
 
 
 def create(name: str | None = None, *, desc: Desc | Callable[..., Desc] | None = None,
-           edits: Mapping[str, Any] | None = None, episode_length: int | None = 1000,
+           edits: Mapping[str, Any] | None = None, episode_length: Any = _REGISTERED,
            action_repeat: int = 1, **params) -> Any:
   """Builds an environment.
 
@@ -95,13 +110,18 @@ def create(name: str | None = None, *, desc: Desc | Callable[..., Desc] | None =
     desc: a desc dict, or a factory called with ``**params``.
     edits: ``{"dotted.path": value}`` applied to the final desc.
     episode_length: steps (of the unrepeated env) before truncation; None for no time limit.
-    action_repeat: times each action is repeated.
+      Default: the env's registered length (``episode_length(name)``: 1000, Braxlines', for every
+      body; 50 for the point mass), 1000 for a desc without a name. The env owns its episode:
+      the trainer, the evaluations and render run it as given (adding only auto-reset).
+    action_repeat: times each action is repeated (env steps counted include the repeats).
     **params: parameters of a registered env factory (e.g. ``num_legs`` of ``pro_ant_run``).
 
   Returns:
     The ``Env``, wrapped by ``action_repeat`` and ``episode`` (no auto-reset: trainers add it).
   """
   full = get_desc(name, desc=desc, edits=edits, **params)
+  if episode_length is _REGISTERED:
+    episode_length = _EPISODE_LENGTHS[name] if name is not None else DEFAULT_EPISODE_LENGTH
   env = Env(full, name=name)
   env = wrappers.action_repeat(env, action_repeat)
   if episode_length is not None:

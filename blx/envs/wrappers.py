@@ -13,7 +13,8 @@ import jax.numpy as jnp
 
 from blx.envs.env import State
 
-__all__ = ["Wrapper", "action_repeat", "episode", "auto_reset", "unwrap"]
+__all__ = ["Wrapper", "action_repeat", "episode", "auto_reset", "unwrap", "episode_steps",
+           "resets_itself"]
 
 
 class Wrapper:
@@ -92,6 +93,16 @@ class _Episode(Wrapper):
     return state.replace(done=done, truncation=truncation, info={**state.info, "steps": steps})
 
 
+def episode_steps(env, who: str = "episode_steps") -> int:
+  """Policy steps in one episode of ``env``: its ``episode_length`` over its ``action_repeat``,
+  rounded up. The env must carry a time limit (``blx.envs.create`` gives one by default)."""
+  length = getattr(env, "episode_length", None)
+  if length is None:
+    raise ValueError(f"{who}: the env has no time limit, so an episode never ends; create it with "
+                     "one, e.g. blx.envs.create(name, episode_length=1000)")
+  return -(-length // getattr(env, "action_repeat", 1))
+
+
 def episode(env, length: int):
   """Ends episodes after ``length`` steps (of the unrepeated env), setting ``State.truncation`` = 1
   when time ran out."""
@@ -114,6 +125,15 @@ class _AutoReset(Wrapper):
     data = jax.tree.map(reset, state.info["first_data"], state.data)
     obs = reset(state.info["first_obs"], state.obs)
     return state.replace(data=data, obs=obs, pre_reset_obs=state.obs)
+
+
+def resets_itself(env) -> bool:
+  """Whether ``auto_reset`` wraps ``env`` anywhere."""
+  while isinstance(env, Wrapper):
+    if isinstance(env, _AutoReset):
+      return True
+    env = env.env
+  return False
 
 
 def auto_reset(env):

@@ -100,6 +100,9 @@ def cmd_envs(args) -> int:
   params = envs.env_params(args.name)
   if params:
     print("env params: " + ", ".join(f"{k}={v!r}" for k, v in params.items()))
+  length = envs.registry.episode_length(args.name)
+  print(f"episode: {length} steps, action repeat 1 (the env's own: --env-param episode_length=N, "
+        "--env-param action_repeat=N)")
   return 0
 
 
@@ -232,7 +235,7 @@ def cmd_render(args) -> int:
   import jax
   import jax.numpy as jnp
   import numpy as np
-  from blx import metrics
+  from blx import envs, metrics
   from blx.experiments import render, runs  # the GL backend was chosen in _quiet_imports
   _check_render_args(args)
   run = runs.load_run(args.dir)
@@ -253,13 +256,14 @@ def cmd_render(args) -> int:
     if args.skills:
       raise UsageError(f"--skills: {run.spec.objective} has no skills")
     latents = jnp.zeros((1, run.objective.latent_size))
-  length = run.config.eval_episode_length or run.config.episode_length
-  steps = min(args.steps or length, length) // run.config.action_repeat
+  repeat = getattr(run.env, "action_repeat", 1)
+  length = envs.episode_steps(run.env, "render") * repeat
+  steps = min(args.steps or length, length) // repeat
   qpos = np.asarray(render.rollout_qpos(run, params, latents, key, steps=steps))
   frames = np.concatenate([render.render_frames(run.env.mj_model, q, width=args.width,
                                                 height=args.height) for q in qpos])
   out = args.out or os.path.join(args.dir, "video.mp4")
-  fps = 1.0 / (run.env.dt * run.config.action_repeat)
+  fps = 1.0 / (run.env.dt * repeat)
   render.write_video(out, frames, fps=min(fps, 60.0))
   print(f"[blx] wrote {out}: {len(frames)} frames of {args.width}x{args.height}, "
         f"{latents.shape[0]} episode(s)", file=sys.stderr)

@@ -10,7 +10,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from blx import metrics
+from blx import envs, metrics
 
 __all__ = ["training_curves", "skills", "density", "discriminator", "write_all"]
 
@@ -189,15 +189,14 @@ def write_all(run, history: list[dict], *, seed_index: int = 0, key_seed: int = 
   params = jax.tree.map(lambda x: x[seed_index], run.params)
   spec = run.objective.spec
   plot = metrics.family_of(run.objective).plot
-  length = run.config.eval_episode_length or run.config.episode_length
+  length = envs.episode_steps(run.env, "plots")  # policy steps of one of the env's episodes
   key = jax.random.PRNGKey(key_seed)
   name = f"{run.objective.name} on {run.spec.env} (seed {run.spec.seeds[seed_index]})"
   if plot == "skills":
     indices = np.asarray(metrics.eval_indices(run.objective))
     latents = metrics.latents_for_evaluation(run.objective, key, 8)
     states = jax.jit(lambda p, z, k: metrics.rollout(
-        run.env, run.policy, p, z, k, episodes_per_latent=3, episode_length=length,
-        action_repeat=run.config.action_repeat))(params, latents, key)
+        run.env, run.policy, p, z, k, episodes_per_latent=3))(params, latents, key)
     path = os.path.join(out_dir, "skills.png")
     skills(np.asarray(states[..., indices]), path, labels=feature_labels(run.env, indices),
            scale=spec.obs_scale, title=name)
@@ -206,7 +205,6 @@ def write_all(run, history: list[dict], *, seed_index: int = 0, key_seed: int = 
     indices = np.asarray(spec.obs_indices)
     states = jax.jit(lambda p, k: metrics.rollout(
         run.env, run.policy, p, jnp.zeros((1, 0)), k, episodes_per_latent=10,
-        episode_length=length, action_repeat=run.config.action_repeat,
         conditions_policy=False))(params, key)
     last = max(1, length // 2)
     x = np.asarray(states[0, :, -last:][..., indices]).reshape(-1, len(indices))

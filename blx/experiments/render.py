@@ -16,13 +16,13 @@ def ensure_headless_gl() -> None:
 
 def rollout_qpos(run, params, latents, key, *, steps: int):
   """Deterministic episodes, one per latent ``[L, Z]``: ``qpos [L, T, nq]`` (held after a
-  termination), from the run's env with its episode length and action repeat."""
+  termination), the first ``steps`` policy steps of the run's env as given (at most one episode)."""
   import jax
   import jax.numpy as jnp
   from blx import envs
 
-  env = envs.episode(envs.action_repeat(envs.unwrap(run.env), run.config.action_repeat),
-                     steps * run.config.action_repeat)
+  env = run.env
+  steps = min(steps, envs.episode_steps(env, "render"))
   conditions = run.objective.conditions_policy
   n = latents.shape[0]
 

@@ -79,7 +79,12 @@ def build(spec: RunSpec):
   if spec.env not in envs.list_envs() and spec.desc is None:
     raise ValueError(f"unknown env {spec.env!r}; valid envs are {envs.list_envs()}")
   if spec.desc is not None:
-    env = envs.create(desc=spec.desc)
+    # The episode is the env's: a run rebuilt from its desc keeps the length it was created with.
+    episode = {k: spec.env_params[k] for k in ("episode_length", "action_repeat")
+               if k in spec.env_params}
+    if spec.env in envs.list_envs():
+      episode.setdefault("episode_length", envs.registry.episode_length(spec.env))
+    env = envs.create(desc=spec.desc, **episode)
   else:
     env = envs.create(spec.env, **spec.env_params)
   options = dict(spec.objective_options)
@@ -143,10 +148,18 @@ def read_spec(directory: str) -> RunSpec:
     raise RunError(f"{directory!r} was written by run format {version!r}; this blx reads format "
                    f"{FORMAT_VERSION}: retrain it with this version")
   try:
+    ppo, env_params = dict(data["ppo"]), dict(data.get("env_params", {}))
+    # Runs written while PPOConfig held the episode: it moves to the env's parameters.
+    if ppo.get("eval_episode_length") is not None:
+      raise RunError(f"{path}: written with eval_episode_length, which blx no longer has (the "
+                     "env owns its episode); retrain it with this version")
+    ppo.pop("eval_episode_length", None)
+    for key in ("episode_length", "action_repeat"):
+      if key in ppo:
+        env_params.setdefault(key, ppo.pop(key))
     return RunSpec(env=data["env"], objective=data["objective"],
-                   objective_options=data["objective_options"], ppo=data["ppo"],
-                   seeds=tuple(data["seeds"]), env_params=data.get("env_params", {}),
-                   desc=data.get("desc"))
+                   objective_options=data["objective_options"], ppo=ppo,
+                   seeds=tuple(data["seeds"]), env_params=env_params, desc=data.get("desc"))
   except KeyError as e:
     raise RunError(f"{path}: missing key {e}") from None
 
@@ -196,12 +209,10 @@ def write_metrics_csv(path: str, history: list[dict], seeds) -> None:
   os.replace(tmp, path)
 
 
-def evaluator_for(env, objective, config: training.PPOConfig, *, quick: bool = False):
-  """The paper's evaluator for the objective (``blx.metrics.evaluator_for``), sized to the run's
-  episodes; None for objectives measured by their rewards alone."""
-  return metrics.evaluator_for(env, objective,
-                               episode_length=config.eval_episode_length or config.episode_length,
-                               action_repeat=config.action_repeat, quick=quick)
+def evaluator_for(env, objective, *, quick: bool = False):
+  """The paper's evaluator for the objective (``blx.metrics.evaluator_for``) on the run's env and
+  its episodes; None for objectives measured by their rewards alone."""
+  return metrics.evaluator_for(env, objective, quick=quick)
 
 
 def evaluate_run(run: Run, *, key_seed: int = 0) -> dict[str, list[float]]:
@@ -210,7 +221,7 @@ def evaluate_run(run: Run, *, key_seed: int = 0) -> dict[str, list[float]]:
   trainer = training.make_trainer(run.env, run.objective, run.config)
   keys = jax.random.split(jax.random.PRNGKey(key_seed), len(run.spec.seeds))
   results: dict[str, list[float]] = {}
-  evaluator = evaluator_for(run.env, run.objective, run.config)
+  evaluator = evaluator_for(run.env, run.objective)
 
   def one(params, key):
     out = {k: v for k, v in trainer.evaluate(params, key).items()
@@ -255,7 +266,7 @@ def train_run(spec: RunSpec, directory: str, *, resume: bool = False, progress=T
                      f"{list(old.seeds)}; resume it with the same settings")
   else:  # a resumed run keeps its config.json untouched
     write_config(directory, spec, env)
-  evaluator = evaluator_for(env, objective, config, quick=True) if eval_metrics else None
+  evaluator = evaluator_for(env, objective, quick=True) if eval_metrics else None
   result = training.train(env, objective, config, seeds=spec.seeds, progress=progress,
                           checkpoint_dir=os.path.join(directory, "checkpoint"), resume=resume,
                           evaluate=evaluator)

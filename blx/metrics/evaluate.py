@@ -33,19 +33,22 @@ __all__ = ["rollout", "latents_for_evaluation", "eval_indices", "mimax_evaluator
 
 
 def rollout(env: Any, policy: Callable, params: dict, latents: jax.Array, key: jax.Array, *,
-            episodes_per_latent: int, episode_length: int, action_repeat: int = 1,
-            conditions_policy: bool = True, deterministic: bool = False) -> jax.Array:
+            episodes_per_latent: int, conditions_policy: bool = True,
+            deterministic: bool = False) -> jax.Array:
   """Episodes for each latent: observations ``[L, M, T, O]`` (T policy steps).
 
-  Actions are sampled from the policy (as Braxlines' evaluation) unless ``deterministic``, which
-  takes the mean action. There is no auto-reset and a terminated episode is not frozen: as in
-  Braxlines' evaluation envs (``auto_reset=False``), the physics and the policy go on for all
-  ``episode_length`` steps, so a fallen agent's later states are what it then does, not copies of
-  the state it fell in.
+  ``env`` runs as given: one episode is its ``episode_length`` (over its ``action_repeat``) policy
+  steps. Actions are sampled from the policy (as Braxlines' evaluation) unless ``deterministic``,
+  which takes the mean action. There is no auto-reset and a terminated episode is not frozen: as in
+  Braxlines' evaluation envs (``auto_reset=False``), the physics and the policy go on for the whole
+  episode, so a fallen agent's later states are what it then does, not copies of the state it fell
+  in.
   """
-  base = envs_lib.episode(envs_lib.action_repeat(envs_lib.unwrap(env), action_repeat),
-                          episode_length)
-  steps = -(-episode_length // action_repeat)
+  if envs_lib.resets_itself(env):
+    raise ValueError("rollout: the env resets itself (auto_reset); evaluation runs whole episodes "
+                     "of the env without it")
+  base = env
+  steps = envs_lib.episode_steps(env, "rollout")
   num_latents = latents.shape[0]
   n = num_latents * episodes_per_latent
   z = jnp.repeat(latents, episodes_per_latent, axis=0)
@@ -91,8 +94,7 @@ def _check_spec(objective: Objective, spec_type: type, helper: str) -> None:
 
 
 def mimax_evaluator(env: Any, objective: Objective, *, num_latents: int = 10,
-                    episodes_per_latent: int = 10, episode_length: int = 1000,
-                    action_repeat: int = 1, last_steps: int = 500, bins: int = 1000,
+                    episodes_per_latent: int = 10, last_steps: int = 500, bins: int = 1000,
                     num_goals: int = 10, coverage_cell: float = 1.0,
                     deterministic: bool = False) -> Callable:
   """``(policy, params, key) -> metrics`` for an MI-max objective.
@@ -123,8 +125,8 @@ def mimax_evaluator(env: Any, objective: Objective, *, num_latents: int = 10,
     num = latents.shape[0]
     goal_latents = jax.vmap(infer_latent, (None, 0))(params.objective, goal_obs)
     everything = rollout(env, policy, params, jnp.concatenate([latents, goal_latents]), roll_key,
-                         episodes_per_latent=episodes_per_latent, episode_length=episode_length,
-                         action_repeat=action_repeat, deterministic=deterministic)[..., indices]
+                         episodes_per_latent=episodes_per_latent,
+                         deterministic=deterministic)[..., indices]
     states = everything[:num, :, -last_steps:]  # [L, M, T, D]
     reached = everything[num:]
     labels = jnp.repeat(jnp.arange(num), states.shape[1] * states.shape[2])
@@ -147,8 +149,7 @@ def mimax_evaluator(env: Any, objective: Objective, *, num_latents: int = 10,
 
 
 def dmin_evaluator(env: Any, objective: Objective, *, num_episodes: int = 10,
-                   episode_length: int = 1000, action_repeat: int = 1, last_steps: int = 500,
-                   every: int = 10, deterministic: bool = False) -> Callable:
+                   last_steps: int = 500, every: int = 10, deterministic: bool = False) -> Callable:
   """``(policy, params, key) -> {"eval/energy_distance"}`` for a D-min objective: the energy
   distance between the policy's indexed states (``num_episodes`` episodes, every ``every``-th of
   the last ``last_steps`` steps, actions sampled unless ``deterministic``) and the target samples."""
@@ -159,8 +160,7 @@ def dmin_evaluator(env: Any, objective: Objective, *, num_episodes: int = 10,
 
   def evaluate(policy, params, key):
     states = rollout(env, policy, params, jnp.zeros((1, 0)), key,
-                     episodes_per_latent=num_episodes, episode_length=episode_length,
-                     action_repeat=action_repeat, conditions_policy=False,
+                     episodes_per_latent=num_episodes, conditions_policy=False,
                      deterministic=deterministic)
     x = states[0, :, -last_steps:][:, ::every][..., indices]  # [episodes, samples, D]
     out = {"eval/energy_distance": particle.energy_distance(x.reshape(-1, len(indices)), target)}

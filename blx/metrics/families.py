@@ -12,6 +12,7 @@ from __future__ import annotations
 
 from typing import Any, Callable, NamedTuple
 
+from blx import envs
 from blx.metrics.evaluate import dmin_evaluator, mimax_evaluator
 from blx.objectives.base import Objective
 from blx.objectives.specs import DminSpec, MimaxSpec, TaskSpec
@@ -29,8 +30,9 @@ class Family(NamedTuple):
 
   Attributes:
     name: the label that groups runs in sweep tables ("mimax", "dmin", "task").
-    make_evaluator: ``(env, objective, *, episode_length, action_repeat, last_steps, quick) ->
-      (policy, params, key) -> metrics``, or None when the family has no metric beyond rewards.
+    make_evaluator: ``(env, objective, *, last_steps, quick) -> (policy, params, key) -> metrics``
+      (``env`` as given, with its episode length), or None when the family has no metric beyond
+      rewards.
     table: the columns of the paper-style table: ``(label, metric key, sign)``; the sign turns
       metrics where smaller is better into the paper's "-LGR" style.
     plot: one of ``PLOTS`` or None.
@@ -69,30 +71,27 @@ def family_of(objective: Objective) -> Family:
   return family
 
 
-def evaluator_for(env: Any, objective: Objective, *, episode_length: int, action_repeat: int = 1,
-                  quick: bool = False) -> Callable | None:
+def evaluator_for(env: Any, objective: Objective, *, quick: bool = False) -> Callable | None:
   """The paper's evaluator for ``objective`` (None when its family has none), on the last half of
-  each episode (at most 500 steps, the paper's); ``quick`` uses fewer rollouts (for logging while
-  training)."""
+  each of ``env``'s episodes (at most 500 steps, the paper's); ``quick`` uses fewer rollouts (for
+  logging while training)."""
   family = family_of(objective)
   if family.make_evaluator is None:
     return None
-  last = min(500, max(1, episode_length // 2))
-  return family.make_evaluator(env, objective, episode_length=episode_length,
-                               action_repeat=action_repeat, last_steps=last, quick=quick)
+  last = min(500, max(1, envs.episode_steps(env, "evaluator_for") // 2))
+  return family.make_evaluator(env, objective, last_steps=last, quick=quick)
 
 
-def _mimax(env, objective, *, episode_length, action_repeat, last_steps, quick):
+def _mimax(env, objective, *, last_steps, quick):
   n = 4 if quick else 10
   return mimax_evaluator(env, objective, num_latents=n, episodes_per_latent=n, num_goals=n,
-                         episode_length=episode_length, action_repeat=action_repeat,
                          last_steps=last_steps)
 
 
-def _dmin(env, objective, *, episode_length, action_repeat, last_steps, quick):
+def _dmin(env, objective, *, last_steps, quick):
+  steps = envs.episode_steps(env, "evaluator_for")
   return dmin_evaluator(env, objective, num_episodes=4 if quick else 10,
-                        every=1 if episode_length < 200 else 10, episode_length=episode_length,
-                        action_repeat=action_repeat, last_steps=last_steps)
+                        every=1 if steps < 200 else 10, last_steps=last_steps)
 
 
 register_family(MimaxSpec, Family(

@@ -33,8 +33,6 @@ class PPOConfig:
 
   num_timesteps: int = 30_000_000
   num_envs: int = 2048
-  episode_length: int = 1000
-  action_repeat: int = 1
   unroll_length: int = 5
   batch_size: int = 1024
   num_minibatches: int = 32
@@ -53,10 +51,9 @@ class PPOConfig:
   value_hidden: tuple[int, ...] = (256, 256, 256, 256, 256)
   num_evals: int = 20
   num_eval_envs: int = 128
-  eval_episode_length: int | None = None  # None: episode_length
 
   def __post_init__(self):
-    positive = ("num_timesteps", "num_envs", "episode_length", "action_repeat", "unroll_length",
+    positive = ("num_timesteps", "num_envs", "unroll_length",
                 "batch_size", "num_minibatches", "num_updates_per_batch", "num_evals",
                 "num_eval_envs")
     for name in positive:
@@ -80,11 +77,6 @@ class PPOConfig:
     for name in ("normalize_observations", "normalize_advantage", "normalize_latent"):
       if not isinstance(getattr(self, name), bool):
         raise ValueError(f"PPOConfig.{name} must be True or False, got {getattr(self, name)!r}")
-    if self.eval_episode_length is not None and (
-        not isinstance(self.eval_episode_length, int) or isinstance(self.eval_episode_length, bool)
-        or self.eval_episode_length < 1):
-      raise ValueError(f"PPOConfig.eval_episode_length must be None or a positive int, got "
-                       f"{self.eval_episode_length!r}")
     if (self.batch_size * self.num_minibatches) % self.num_envs:
       raise ValueError(
           f"PPOConfig: batch_size * num_minibatches ({self.batch_size * self.num_minibatches}) must "
@@ -109,11 +101,29 @@ class PPOConfig:
 
   @property
   def env_steps_per_iteration(self) -> int:
-    return self.num_envs * self.unroll_length * self.num_unrolls * self.action_repeat
+    """Policy steps per iteration; env steps at action repeat 1 (a ``Trainer``'s
+    ``env_steps_per_iteration`` counts the env's repeats)."""
+    return self.num_envs * self.unroll_length * self.num_unrolls
 
   def replace(self, **changes: Any) -> "PPOConfig":
+    check_env_owned("PPOConfig", changes)
     check_names("PPOConfig", changes, [f.name for f in dataclasses.fields(self)], "key")
     return dataclasses.replace(self, **changes)
+
+
+# Settings of the episode, which the env owns (blx.envs.create(..., episode_length=,
+# action_repeat=)); PPOConfig had them before.
+ENV_OWNED = ("episode_length", "action_repeat", "eval_episode_length")
+
+
+def check_env_owned(where: str, names: Any) -> None:
+  """A clear error for an episode setting given as a PPO setting."""
+  given = [n for n in ENV_OWNED if n in names]
+  if given:
+    raise ValueError(f"{where}: {', '.join(given)} belong to the env, not to PPO: create the env "
+                     "with them (blx.envs.create(name, episode_length=..., action_repeat=...); "
+                     "CLI: --env-param episode_length=...); the trainer, evaluations and render "
+                     "run the env as given")
 
 
 def check_seeds(seeds: Any, where: str = "seeds") -> tuple[int, ...]:
@@ -141,8 +151,9 @@ def check_seeds(seeds: Any, where: str = "seeds") -> tuple[int, ...]:
   return tuple(values)
 
 
-# Braxlines experiments/defaults.py (all: episode 1000, normalised observations, lr 3e-4, 2048 envs,
-# 32 minibatches). Composer envs and unknown names use the ant row.
+# Braxlines experiments/defaults.py (all: normalised observations, lr 3e-4, 2048 envs, 32
+# minibatches; the episodes of 1000 steps are the envs' own, see blx.envs.create). Composer envs and
+# unknown names use the ant row.
 _ROWS: dict[str, dict[str, Any]] = {
     "ant": dict(num_timesteps=30_000_000, reward_scaling=10.0, unroll_length=5,
                 num_updates_per_batch=4, discounting=0.97, entropy_cost=1e-2, batch_size=1024,
@@ -153,8 +164,9 @@ _ROWS: dict[str, dict[str, Any]] = {
     "halfcheetah": dict(num_timesteps=100_000_000, reward_scaling=1.0, unroll_length=20,
                         num_updates_per_batch=8, discounting=0.95, entropy_cost=1e-3,
                         batch_size=512, num_evals=10),
-    # Not in Braxlines: a small row for the point mass, so runs finish in a minute on 2 CPU cores.
-    "point": dict(num_timesteps=200_000, num_envs=64, episode_length=50, unroll_length=10,
+    # Not in Braxlines: a small row for the point mass (whose env has 50-step episodes), so runs
+    # finish in a minute on 2 CPU cores.
+    "point": dict(num_timesteps=200_000, num_envs=64, unroll_length=10,
                   batch_size=64, num_minibatches=4, num_updates_per_batch=4, learning_rate=3e-3,
                   entropy_cost=1e-3, discounting=0.95, reward_scaling=1.0, num_evals=4,
                   num_eval_envs=16),

@@ -59,7 +59,8 @@ def train(env: Any, objective: Objective, config: PPOConfig, *, seeds: Sequence[
   """Trains ``objective`` on ``env`` with PPO for every seed in one vmapped program.
 
   Args:
-    env: an env from ``blx.envs.create`` (the config sets episode length and action repeat).
+    env: an env from ``blx.envs.create``, run as given: its episode length and action repeat are
+      its own (training adds auto-reset).
     objective: ``blx.objectives.task()`` or any ``Objective``.
     config: ``PPOConfig``; ``num_evals`` sets how often the host evaluates, reports and checkpoints.
     seeds: one training run per seed, vmapped.
@@ -102,9 +103,9 @@ def train(env: Any, objective: Objective, config: PPOConfig, *, seeds: Sequence[
   else:
     state = init_fn(init_keys)
 
-  total = trainer.num_chunks * trainer.iterations_per_chunk * config.env_steps_per_iteration
+  total = trainer.num_chunks * trainer.iterations_per_chunk * trainer.env_steps_per_iteration
   t0 = time.time()
-  steps0 = start_chunk * trainer.iterations_per_chunk * config.env_steps_per_iteration
+  steps0 = start_chunk * trainer.iterations_per_chunk * trainer.env_steps_per_iteration
 
   def dispatch(state, chunk):
     """Queues chunk ``chunk`` after ``state`` and the evaluations of its result on the device

@@ -111,6 +111,7 @@ class Trainer(NamedTuple):
   num_chunks: int
   iterations_per_chunk: int
   config: PPOConfig
+  env_steps_per_iteration: int  # counting the env's action repeats
 
 
 def _data_sharding(num_envs: int) -> Callable[[Any], Any]:
@@ -177,6 +178,7 @@ class Learner(NamedTuple):
   objective: Objective
   config: PPOConfig
   stats_size: int         # width of the running normaliser: obs, plus z when it is normalised too
+  action_repeat: int = 1  # the env's: env steps per policy step
 
   @property
   def latent_in_stats(self) -> bool:
@@ -191,7 +193,7 @@ class Learner(NamedTuple):
 
 
 def make_learner(obs_size: int, action_size: int, objective: Objective,
-                 config: PPOConfig) -> Learner:
+                 config: PPOConfig, action_repeat: int = 1) -> Learner:
   """The networks (policy ``[*policy_hidden, 2 A]``, value ``[*value_hidden, 1]``) and the
   optimiser (global-norm clipping, then Adam) for an env of these sizes."""
   c = config
@@ -200,7 +202,8 @@ def make_learner(obs_size: int, action_size: int, objective: Objective,
       optax.adam(c.learning_rate))
   learner = Learner(policy_net=networks.MLP((*c.policy_hidden, 2 * action_size)),
                     value_net=networks.MLP((*c.value_hidden, 1)), optimizer=optimizer,
-                    objective=objective, config=c, stats_size=obs_size)
+                    objective=objective, config=c, stats_size=obs_size,
+                    action_repeat=action_repeat)
   if learner.latent_in_stats:
     learner = learner._replace(stats_size=obs_size + objective.latent_size)
   return learner
@@ -334,7 +337,8 @@ def update(learner: Learner, state: TrainState, data: Rollout) -> tuple[TrainSta
       "nonfinite/observation": ~(jnp.isfinite(data.obs).all() & jnp.isfinite(data.next_obs).all()),
   })
   state = state.replace(params=params, opt_state=opt_state, normalizer=normalizer, key=key,
-                        env_steps=state.env_steps + c.env_steps_per_iteration,
+                        env_steps=state.env_steps
+                        + c.env_steps_per_iteration * learner.action_repeat,
                         iteration=state.iteration + 1)
   return state, metrics
 
@@ -355,7 +359,7 @@ def evaluate(learner: Learner, env: Any, steps: int, params: PolicyParams, key: 
     transition = Transition(state.obs, action, next_state.obs, next_state.reward, z)
     reward = jax.vmap(objective.reward, (None, 0))(params.objective, transition)
     step = {"eval/episode_reward": reward, "eval/episode_env_reward": next_state.reward,
-            "eval/episode_length": jnp.ones_like(reward) * c.action_repeat,
+            "eval/episode_length": jnp.ones_like(reward) * learner.action_repeat,
             **{f"eval/episode_{k}": v for k, v in next_state.metrics.items()}}
     return step, next_state.done
 
@@ -366,25 +370,29 @@ def evaluate(learner: Learner, env: Any, steps: int, params: PolicyParams, key: 
 
 
 def make_trainer(env: Any, objective: Objective, config: PPOConfig) -> Trainer:
-  """Binds the pieces above into the pure training functions for ``env`` (any wrappers are replaced
-  by the config's)."""
+  """Binds the pieces above into the pure training functions for ``env``, run as given: its
+  episode length and action repeat are its own (``blx.envs.create``); training adds auto-reset."""
   if not isinstance(config, PPOConfig):
     raise ValueError(f"config must be a PPOConfig, got {type(config).__name__}")
   if not isinstance(objective, Objective):
     raise ValueError(f"objective must be a blx.objectives.Objective, got {type(objective).__name__}")
   c = config
   base = envs_lib.unwrap(env)
-  repeated = envs_lib.action_repeat(base, c.action_repeat)
-  train_env = envs_lib.auto_reset(envs_lib.episode(repeated, c.episode_length))
-  eval_env = envs_lib.episode(repeated, c.eval_episode_length or c.episode_length)
-  eval_steps = -(-(c.eval_episode_length or c.episode_length) // c.action_repeat)
+  if envs_lib.resets_itself(env):
+    raise ValueError("make_trainer: the env already resets itself (auto_reset); pass it without: "
+                     "training adds auto-reset and evaluation runs whole episodes")
+  eval_steps = envs_lib.episode_steps(env, "make_trainer")
+  repeat = getattr(env, "action_repeat", 1)
+  train_env = envs_lib.auto_reset(env)
+  eval_env = env
 
   obs_size = base.observation_size
-  learner = make_learner(obs_size, base.action_size, objective, c)
+  learner = make_learner(obs_size, base.action_size, objective, c, repeat)
   policy_in = obs_size + (objective.latent_size if objective.conditions_policy else 0)
   shard = _data_sharding(c.num_envs)
 
-  iterations = -(-c.num_timesteps // c.env_steps_per_iteration)
+  env_steps_per_iteration = c.env_steps_per_iteration * repeat
+  iterations = -(-c.num_timesteps // env_steps_per_iteration)
   num_chunks = min(c.num_evals, iterations)
   iterations_per_chunk = -(-iterations // num_chunks)
 
@@ -433,7 +441,8 @@ def make_trainer(env: Any, objective: Objective, config: PPOConfig) -> Trainer:
   policy = make_policy(learner.policy_net, c.normalize_observations, c.normalize_latent)
   return Trainer(init=init, chunk=chunk, collect=collect_fn, update=update_fn,
                  evaluate=evaluate_fn, train=train, policy=policy, num_chunks=num_chunks,
-                 iterations_per_chunk=iterations_per_chunk, config=c)
+                 iterations_per_chunk=iterations_per_chunk, config=c,
+                 env_steps_per_iteration=env_steps_per_iteration)
 
 
 def policy_params(state: TrainState) -> PolicyParams:

@@ -88,7 +88,7 @@ class _Walker(_Counter):
 
 def test_render_holds_the_pose_an_episode_ended_in():
   from blx.experiments import render
-  run = SimpleNamespace(env=_Walker(end=2.0), config=SimpleNamespace(action_repeat=1),
+  run = SimpleNamespace(env=envs.episode(_Walker(end=2.0), 5),
                         objective=SimpleNamespace(conditions_policy=False),
                         policy=lambda params, obs, z: jnp.zeros((obs.shape[0], 1)))
   qpos = render.rollout_qpos(run, None, jnp.zeros((2, 0)), jax.random.PRNGKey(0), steps=5)

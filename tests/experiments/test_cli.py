@@ -16,10 +16,10 @@ import pytest
 from blx.experiments import cli, sweep
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
-TINY_CONFIG = dict(num_envs=16, batch_size=8, num_minibatches=4, unroll_length=5, episode_length=20,
+TINY_CONFIG = dict(num_envs=16, batch_size=8, num_minibatches=4, unroll_length=5,
                    num_evals=2, num_eval_envs=4, policy_hidden=(16, 16), value_hidden=(16, 16))
 TINY = [arg for k, v in TINY_CONFIG.items() for arg in ("--config", f"{k}={v!r}".replace(" ", ""))]
-TINY += ["--steps", "1600"]
+TINY += ["--steps", "1600", "--env-param", "episode_length=20"]  # the episode is the env's
 
 
 @pytest.fixture(scope="module")
@@ -60,6 +60,8 @@ def test_load_run_rebuilds_env_objective_and_params(trained):
   run = blx.load_run(trained)
   assert run.objective.name == "diayn" and run.objective.latent_size == 3
   assert run.env.observation_size == 4
+  # Rebuilt from its desc, the env keeps the episode it was trained with (20, not point's 50).
+  assert run.env.episode_length == 20 and __import__("blx").envs.episode_steps(run.env) == 20
   leaves = [np.asarray(x) for x in __import__("jax").tree.leaves(run.params.policy)]
   assert all(x.shape[0] == 2 for x in leaves)  # the seed axis
 
@@ -82,7 +84,8 @@ def test_render_writes_a_video_with_frames_of_the_right_size(trained, tmp_path):
 
 def test_sweep_writes_one_run_per_point_and_aggregate_tables(tmp_path, capsys):
   spec = {"name": "tiny", "env": "point", "objective": ["gcrl", "gail"], "seeds": [0, 1],
-          "steps": 1600, "config": dict(TINY_CONFIG), "options": {"obs_scale": 4.0}}
+          "steps": 1600, "config": dict(TINY_CONFIG), "options": {"obs_scale": 4.0},
+          "env_params": {"episode_length": 20}}
   # A list is a grid axis; a list-valued setting is a one-point axis holding the list.
   spec["config"].update(policy_hidden=[[16, 16]], value_hidden=[[16, 16]])
   path = tmp_path / "spec.json"
@@ -123,6 +126,9 @@ def test_sweep_writes_one_run_per_point_and_aggregate_tables(tmp_path, capsys):
     (["train", "--objective", "dayn"], "unknown objective 'dayn'; valid objectives are"),
     (["train", "--config", "foo=1"], "unknown key(s) ['foo']; valid keys are"),
     (["train", "--config", "num_envs"], "expected key=value"),
+    (["train", "--config", "episode_length=20"],
+     "episode_length belong to the env, not to PPO: create the env with them"),
+    (["train", "--env-param", "episode_length=0"], "episode_length must be a positive int"),
     (["train", "--seeds", "a,b"], "expected comma-separated ints"),
     (["train", "--option", "bogus=1"], "unknown option(s) ['bogus']"),
     (["train", "--config", "learning_rate=abc"], "learning_rate must be a number, got 'abc'"),

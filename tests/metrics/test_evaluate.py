@@ -10,8 +10,13 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from blx import metrics, objectives, training
+from blx import envs, metrics, objectives
 from tests.conftest import make_env
+
+
+def point(episode_length: int = 100):
+  """The session's point env with ``episode_length``-step episodes (the env owns its episode)."""
+  return envs.episode(envs.unwrap(make_env("point")), episode_length)
 
 
 class Hand(NamedTuple):
@@ -39,11 +44,11 @@ def noisy_go_to(params, obs, z, key=None, deterministic=False):
 
 
 def test_mimax_helper_on_skills_that_reach_their_goals():
-  env = make_env("point")
+  env = point(100)
   obj = objectives.gcrl(obs_indices="pos_xy", env=env, obs_scale=5.0)
   out = metrics.evaluate_mimax(env, obj, Hand(gain=2.0), jax.random.PRNGKey(0),
                                policy=go_to, num_latents=10, episodes_per_latent=2,
-                               episode_length=100, last_steps=20, bins=1001)
+                               last_steps=20, bins=1001)
   # 10 skills (z ~ U(-2.5, 2.5)^2), each settled at its own z: per dimension every skill fills
   # its own bin, so H(s) = log 10, H(s|z) = 0 and MI = log 10 = 2.302585.
   np.testing.assert_allclose(out["eval/mi"], math.log(10), rtol=1e-5)
@@ -55,7 +60,7 @@ def test_mimax_helper_on_skills_that_reach_their_goals():
   # is the mean RMS distance of the 10 goals ~ U(-5, 5)^2 from the origin, and MI is 0.
   still = metrics.evaluate_mimax(env, obj, Hand(gain=0.0), jax.random.PRNGKey(0),
                                  policy=go_to, num_latents=10, episodes_per_latent=2,
-                                 episode_length=100, last_steps=20, bins=1001)
+                                 last_steps=20, bins=1001)
   goals = jax.random.uniform(jax.random.PRNGKey(0), (10, 2), minval=-5.0, maxval=5.0)
   np.testing.assert_allclose(still["eval/lgr"], np.mean(np.sqrt(np.mean(np.asarray(goals)**2, -1))),
                              rtol=1e-4)
@@ -63,12 +68,12 @@ def test_mimax_helper_on_skills_that_reach_their_goals():
 
 
 def test_dmin_helper_matches_a_direct_energy_distance():
-  env = make_env("point")
+  env = point(100)
   obj = objectives.gail(obs_indices="pos_xy", env=env, obs_scale=8.0)  # modes (+-4, 0)
   params = Hand(gain=2.0)
   policy = lambda params, obs, z, **_: go_to(params, obs, jnp.array([4.0, 0.0]))
   out = metrics.evaluate_dmin(env, obj, params, jax.random.PRNGKey(0), policy=policy,
-                              num_episodes=2, episode_length=100, last_steps=20, every=1)
+                              num_episodes=2, last_steps=20, every=1)
   # Settled at (4, 0): X is 40 copies of (4, 0), so E||X - X'|| = 0 and
   # ED = 2 mean_j ||(4, 0) - y_j|| - mean_jk ||y_j - y_k||.
   y = np.asarray(obj.spec.target.samples, np.float64)
@@ -98,11 +103,11 @@ def test_evaluation_samples_actions_unless_deterministic():
   # each skill over several bins (H(s|z) > 0, lower MI); its mean action reproduces the exact
   # log 10 of the noiseless skills. Fresh noise every step (not one key for the whole episode)
   # keeps the settled point moving.
-  env = make_env("point")
+  env = point(100)
   obj = objectives.gcrl(obs_indices="pos_xy", env=env, obs_scale=5.0)
   params = Hand(gain=2.0, noise=1.0)
-  settings = dict(policy=noisy_go_to, num_latents=10, episodes_per_latent=2, episode_length=100,
-                  last_steps=20, bins=1001)
+  settings = dict(policy=noisy_go_to, num_latents=10, episodes_per_latent=2, last_steps=20,
+                  bins=1001)
   sampled = metrics.evaluate_mimax(env, obj, params, jax.random.PRNGKey(0), **settings)
   mean = metrics.evaluate_mimax(env, obj, params, jax.random.PRNGKey(0), deterministic=True,
                                 **settings)
@@ -110,7 +115,7 @@ def test_evaluation_samples_actions_unless_deterministic():
   assert sampled["eval/conditional_entropy"] > 1.0
   assert sampled["eval/mi"] < mean["eval/mi"] - 0.1
   states = metrics.rollout(env, noisy_go_to, params, jnp.eye(2), jax.random.PRNGKey(1),
-                           episodes_per_latent=1, episode_length=100)
+                           episodes_per_latent=1)
   late = np.asarray(states[:, 0, -20:, :2])
   assert (np.abs(np.diff(late, axis=1)).max(axis=(1, 2)) > 1e-3).all()
 
@@ -132,9 +137,9 @@ class _Falls:
 def test_rollout_goes_on_after_termination_as_braxlines():
   # Braxlines' evaluation envs do not auto-reset and keep stepping a terminated episode: the
   # states after the fall are recorded as they come, not frozen at the fall.
-  states = metrics.rollout(_Falls(), lambda params, obs, z, **_: jnp.zeros((obs.shape[0], 1)), {},
-                           jnp.zeros((1, 0)), jax.random.PRNGKey(0), episodes_per_latent=2,
-                           episode_length=6, conditions_policy=False)
+  still = lambda params, obs, z, **_: jnp.zeros((obs.shape[0], 1))
+  states = metrics.rollout(envs.episode(_Falls(), 6), still, {}, jnp.zeros((1, 0)),
+                           jax.random.PRNGKey(0), episodes_per_latent=2, conditions_policy=False)
   np.testing.assert_array_equal(states[0, :, :, 0], [[1, 2, 3, 4, 5, 6]] * 2)
 
 
@@ -159,7 +164,7 @@ def test_a_new_family_plugs_in_through_one_registration(monkeypatch):
   metrics.register_family(ToySpec, family)
   assert metrics.family_of(toy) is family
   env = make_env("point")
-  assert runs.evaluator_for(env, toy, training.ppo_defaults("point")) is evaluator
+  assert runs.evaluator_for(env, toy) is evaluator
   with pytest.raises(ValueError, match="already registered"):
     metrics.register_family(ToySpec, family)
   with pytest.raises(ValueError, match="plot='bars' is not valid"):

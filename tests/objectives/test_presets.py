@@ -3,7 +3,6 @@ and two learning tests on the point mass (DIAYN skills, GAIL state-marginal matc
 
 from __future__ import annotations
 
-import functools
 
 import chex
 import jax
@@ -11,7 +10,7 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from blx import metrics, objectives, training
+from blx import envs, metrics, objectives, training
 from tests.conftest import make_env
 from tests.training.tiny import SMALL
 
@@ -142,7 +141,8 @@ def test_option_errors_name_the_problem():
 @pytest.mark.parametrize("name", ALL)
 def test_every_preset_trains_on_point_without_nan(name):
   obj = build(name)
-  result = training.train(make_env("point"), obj, SMALL, seeds=(0,), progress=False)
+  env = envs.episode(envs.unwrap(make_env("point")), 20)  # the episodes SMALL is sized for
+  result = training.train(env, obj, SMALL, seeds=(0,), progress=False)
   chex.assert_tree_all_finite(result.params)
   last = result.metrics[-1]
   assert np.isfinite(last["loss/total"]).all() and np.isfinite(last["eval/episode_reward"]).all()
@@ -155,15 +155,14 @@ def test_every_preset_trains_on_point_without_nan(name):
                        jax.tree.leaves(trained["disc"]["params"])))
 
 
-def _skill_accuracy(env, obj, result, *, episodes=8, episode_length=50):
+def _skill_accuracy(env, obj, result, *, episodes=8):
   """Fraction of the second half of fresh deterministic episodes whose state the discriminator
   assigns to the skill that produced it."""
   params = jax.tree.map(lambda x: x[0], result.params)
   k = obj.latent_size
   states = metrics.rollout(env, result.policy, params, jnp.eye(k), jax.random.PRNGKey(123),
-                           episodes_per_latent=episodes, episode_length=episode_length,
-                           deterministic=True)
-  late = states[:, :, episode_length // 2:]
+                           episodes_per_latent=episodes, deterministic=True)
+  late = states[:, :, states.shape[2] // 2:]  # the second half of the point's 50-step episodes
   infer = obj.spec.infer_latent
   predicted = jax.vmap(jax.vmap(jax.vmap(lambda o: infer(params.objective, o))))(late)
   accuracy = float((predicted.argmax(-1) == jnp.arange(k)[:, None, None]).mean())
@@ -204,8 +203,7 @@ def test_gail_moves_the_state_distribution_toward_a_bimodal_target():
   obj = objectives.gail(target=objectives.target_from_samples(samples), obs_indices="pos_xy",
                         env=env)
   config = training.ppo_defaults("point", num_timesteps=300_000)
-  evaluate = metrics.dmin_evaluator(env, obj, num_episodes=4, episode_length=50, last_steps=25,
-                                    every=1)
+  evaluate = metrics.dmin_evaluator(env, obj, num_episodes=4, last_steps=25, every=1)
   trainer = training.make_trainer(env, obj, config)
   state = trainer.init(jax.random.PRNGKey(0))
   params = training.policy_params(state)

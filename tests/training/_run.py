@@ -23,7 +23,8 @@ def main():
     raise KeyboardInterrupt
 
   try:
-    result = training.train(envs.create("point"), reach_latent(), config, seeds=(3,),
+    env = envs.create("point", episode_length=20)
+    result = training.train(env, reach_latent(), config, seeds=(3,),
                             progress=interrupt if mode == "interrupt" else False,
                             checkpoint_dir=ckpt, resume=mode == "resume")
   except KeyboardInterrupt:

@@ -41,7 +41,7 @@ def test_ppo_learns_to_reach_a_goal():
 
 
 def test_vmap_over_seeds_equals_separate_runs():
-  train = training.make_train(envs.create("point"), reach_latent(), SMALL)
+  train = training.make_train(envs.create("point", episode_length=20), reach_latent(), SMALL)
   keys = jax.random.split(jax.random.PRNGKey(0), 3)
   batched_state, batched_metrics = jax.jit(jax.vmap(train))(keys)
   single = jax.jit(train)
@@ -54,7 +54,7 @@ def test_vmap_over_seeds_equals_separate_runs():
 
 
 def test_second_call_of_the_train_step_does_not_recompile():
-  trainer = training.make_trainer(envs.create("point"), reach_latent(), SMALL)
+  trainer = training.make_trainer(envs.create("point", episode_length=20), reach_latent(), SMALL)
   state = jax.jit(trainer.init)(jax.random.PRNGKey(0))
   chunk = jax.jit(trainer.chunk)
   state, _ = chunk(state)
@@ -64,7 +64,7 @@ def test_second_call_of_the_train_step_does_not_recompile():
 
 def test_an_iteration_is_update_after_collect():
   # The halves a profiler times apart compose to exactly the training step.
-  trainer = training.make_trainer(envs.create("point"), reach_latent(), SMALL)
+  trainer = training.make_trainer(envs.create("point", episode_length=20), reach_latent(), SMALL)
   state = jax.jit(trainer.init)(jax.random.PRNGKey(0))
   chunked, _ = jax.jit(trainer.chunk)(state)
   collect, update = jax.jit(trainer.collect), jax.jit(trainer.update)
@@ -99,7 +99,8 @@ def test_non_finite_loss_stops_training_and_keeps_the_last_checkpoint(tmp_path):
   before = open(checkpoint.path(directory), "rb").read()
   with pytest.raises(training.NonFiniteError, match=r"non-finite loss at iteration 0 \(seed 0\); "
                                                     r"the last good checkpoint in .* is kept"):
-    training.train(envs.create("point"), reach_latent(poison=True), SMALL, progress=False,
+    env = envs.create("point", episode_length=20)
+    training.train(env, reach_latent(poison=True), SMALL, progress=False,
                    checkpoint_dir=directory)
   assert open(checkpoint.path(directory), "rb").read() == before
 
@@ -217,3 +218,35 @@ def test_ppo_config_rejects_non_finite_and_out_of_range_numbers(field, value, me
   import dataclasses
   with pytest.raises(ValueError, match=message):
     dataclasses.replace(SMALL, **{field: value})
+
+
+def test_the_trainer_runs_the_env_as_given_with_its_episode_and_action_repeat():
+  # The env owns its episode: an evaluation episode is the env's 8 steps (4 policy steps at action
+  # repeat 2), and an iteration counts the repeats among its env steps.
+  base = envs.unwrap(point_goal())
+  config = SMALL.replace(num_eval_envs=2)
+  for length, repeat in ((8, 1), (8, 2), (5, 2)):
+    env = envs.episode(envs.action_repeat(base, repeat), length)
+    trainer = training.make_trainer(env, task(), config)
+    out = jax.jit(trainer.evaluate)(
+        training.policy_params(jax.jit(trainer.init)(jax.random.PRNGKey(0))), jax.random.PRNGKey(1))
+    # The point never terminates, so every episode lasts the whole time limit (5 env steps at
+    # repeat 2 take 3 policy steps, i.e. 6 env steps).
+    assert float(out["eval/episode_length"]) == repeat * -(-length // repeat), (length, repeat)
+    assert trainer.env_steps_per_iteration == config.env_steps_per_iteration * repeat
+  assert envs.create("point").episode_length == 50  # the point's registered episode
+  assert envs.registry.episode_length("ant") == 1000  # Braxlines' for the bodies
+
+
+def test_episode_settings_are_the_envs_and_bad_envs_are_named():
+  with pytest.raises(ValueError, match="episode_length belong to the env, not to PPO"):
+    training.ppo_defaults("point", episode_length=20)
+  with pytest.raises(ValueError, match="action_repeat belong to the env"):
+    SMALL.replace(action_repeat=2)
+  base = envs.unwrap(point_goal())
+  with pytest.raises(ValueError, match="make_trainer: the env has no time limit"):
+    training.make_trainer(base, task(), SMALL)
+  with pytest.raises(ValueError, match="already resets itself"):
+    training.make_trainer(envs.auto_reset(envs.episode(base, 8)), task(), SMALL)
+  with pytest.raises(ValueError, match="episode_length must be a positive int"):
+    envs.register_env("bad_episode", {}, episode_length=0)

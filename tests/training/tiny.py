@@ -30,7 +30,7 @@ def reach_latent(poison: bool = False) -> Objective:
 
 
 # Small enough to compile and run in seconds on CPU.
-SMALL = PPOConfig(num_timesteps=2 * 16 * 5 * 2, num_envs=16, episode_length=20, unroll_length=5,
+SMALL = PPOConfig(num_timesteps=2 * 16 * 5 * 2, num_envs=16, unroll_length=5,
                   batch_size=8, num_minibatches=4, num_updates_per_batch=2, learning_rate=1e-3,
                   reward_scaling=1.0, num_evals=2, num_eval_envs=4, policy_hidden=(16, 16),
                   value_hidden=(16, 16))
