@@ -7,6 +7,11 @@
 # after another, each killed when the deadline (seconds from start) passes. Output goes to
 # $LOG_DIR/gpu<i>.log (default $OUT, else the working directory). The exit status is 0 when every
 # command finished in time with status 0.
+#
+# For runs longer than one device call, launch this in the background (setsid nohup) and poll with
+# calls that each end by copying what has finished to $OUT, e.g.
+#   tar czf $OUT/res.tgz --exclude='checkpoint*' -C $LOG_DIR .
+# so that a machine handed back between two polls loses nothing that had finished.
 set -u
 if [ $# -eq 0 ]; then
   echo "usage: DEADLINE_S=560 bash benchmarks/on_gpus.sh \"queue of GPU 0\" [\"queue of GPU 1\" ...]" >&2
