@@ -94,12 +94,16 @@ class _Episode(Wrapper):
 
 
 def episode_steps(env, who: str = "episode_steps") -> int:
-  """Policy steps in one episode of ``env``: its ``episode_length`` over its ``action_repeat``,
-  rounded up. The env must carry a time limit (``blx.envs.create`` gives one by default)."""
+  """Policy steps in one whole episode of ``env``: its ``episode_length`` over its
+  ``action_repeat``, rounded up. The env must carry a time limit (``blx.envs.create`` gives one by
+  default) and must not reset itself, so that an episode is seen to end."""
   length = getattr(env, "episode_length", None)
   if length is None:
     raise ValueError(f"{who}: the env has no time limit, so an episode never ends; create it with "
                      "one, e.g. blx.envs.create(name, episode_length=1000)")
+  if resets_itself(env):
+    raise ValueError(f"{who}: the env already resets itself (auto_reset); pass it without: "
+                     "training adds auto-reset and evaluation runs whole episodes")
   return -(-length // getattr(env, "action_repeat", 1))
 
 

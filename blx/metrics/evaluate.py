@@ -44,22 +44,18 @@ def rollout(env: Any, policy: Callable, params: dict, latents: jax.Array, key: j
   episode, so a fallen agent's later states are what it then does, not copies of the state it fell
   in.
   """
-  if envs_lib.resets_itself(env):
-    raise ValueError("rollout: the env resets itself (auto_reset); evaluation runs whole episodes "
-                     "of the env without it")
-  base = env
-  steps = envs_lib.episode_steps(env, "rollout")
+  steps = envs_lib.episode_steps(env, "rollout")  # also refuses an env that resets itself
   num_latents = latents.shape[0]
   n = num_latents * episodes_per_latent
   z = jnp.repeat(latents, episodes_per_latent, axis=0)
   reset_key, action_key = jax.random.split(key)
-  state = jax.vmap(base.reset)(jax.random.split(reset_key, n))
+  state = jax.vmap(env.reset)(jax.random.split(reset_key, n))
 
   def act(obs, step_key):
     return policy(params, obs, z if conditions_policy else None, key=step_key,
                   deterministic=deterministic)
 
-  _, obs = envs_lib.rollout(base, act, state, steps, action_key,
+  _, obs = envs_lib.rollout(env, act, state, steps, action_key,
                             lambda state, action, next_state: next_state.obs)
   obs = jnp.swapaxes(obs, 0, 1)  # [N, T, O]
   return obs.reshape((num_latents, episodes_per_latent) + obs.shape[1:])

@@ -378,9 +378,6 @@ def make_trainer(env: Any, objective: Objective, config: PPOConfig) -> Trainer:
     raise ValueError(f"objective must be a blx.objectives.Objective, got {type(objective).__name__}")
   c = config
   base = envs_lib.unwrap(env)
-  if envs_lib.resets_itself(env):
-    raise ValueError("make_trainer: the env already resets itself (auto_reset); pass it without: "
-                     "training adds auto-reset and evaluation runs whole episodes")
   eval_steps = envs_lib.episode_steps(env, "make_trainer")
   repeat = getattr(env, "action_repeat", 1)
   train_env = envs_lib.auto_reset(env)

@@ -141,6 +141,10 @@ def test_rollout_goes_on_after_termination_as_braxlines():
   states = metrics.rollout(envs.episode(_Falls(), 6), still, {}, jnp.zeros((1, 0)),
                            jax.random.PRNGKey(0), episodes_per_latent=2, conditions_policy=False)
   np.testing.assert_array_equal(states[0, :, :, 0], [[1, 2, 3, 4, 5, 6]] * 2)
+  # Evaluation runs whole episodes of the env as given: one that resets itself is refused.
+  with pytest.raises(ValueError, match="rollout: the env already resets itself"):
+    metrics.rollout(envs.auto_reset(envs.episode(_Falls(), 6)), still, {}, jnp.zeros((1, 0)),
+                    jax.random.PRNGKey(0), episodes_per_latent=2, conditions_policy=False)
 
 
 def test_a_new_family_plugs_in_through_one_registration(monkeypatch):
