@@ -5,9 +5,10 @@ names through :func:`check_names`, so every such error reads the same way."""
 from __future__ import annotations
 
 import inspect
+import math
 from typing import Any, Callable, Iterable, Mapping
 
-__all__ = ["check_names", "check_params", "keyword_names", "accepts_any_keyword"]
+__all__ = ["check_names", "check_params", "keyword_names", "accepts_any_keyword", "finite_number"]
 
 
 def keyword_names(fn: Callable, *, keyword_only: bool = False) -> list[str]:
@@ -59,3 +60,14 @@ def check_params(where: str, fn: Callable, params: Mapping[str, Any]) -> None:
       raise ValueError(
           f"{where}: parameter {key!r} must be {type(default).__name__}, got {value!r} "
           f"({type(value).__name__})")
+    numbers = value if isinstance(value, (tuple, list)) else (value,)
+    if any(isinstance(v, float) and not math.isfinite(v) for v in numbers):
+      raise ValueError(f"{where}: parameter {key!r} must be finite, got {value!r}")
+
+
+def finite_number(where: str, value: Any) -> float:
+  """``value`` as a float when it is a finite int or float (not a bool), else ``ValueError``
+  naming ``where``."""
+  if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+    raise ValueError(f"{where}: must be a finite number, got {value!r}")
+  return float(value)

@@ -2,14 +2,29 @@
 
 from __future__ import annotations
 
+import atexit
 import functools
 import os
+import shutil
+import tempfile
 
 os.environ.setdefault("XLA_FLAGS", "--xla_cpu_multi_thread_eigen=false")
 
 import jax
 import numpy as np
 import pytest
+
+# One compilation cache for the test run (unless BLX_COMPILATION_CACHE=off), shared by pytest-xdist's
+# workers and the CLI subprocesses the tests start (they inherit the variable): programs compiled
+# again (the same env or chunk in another test or process) load from it. The process that made it
+# removes it at exit.
+if os.environ.get("BLX_COMPILATION_CACHE", "").lower() != "off":
+  _CACHE = os.environ.get("BLX_TEST_JAX_CACHE")
+  if not _CACHE:
+    _CACHE = os.environ["BLX_TEST_JAX_CACHE"] = tempfile.mkdtemp(prefix="blx-test-jax-cache-")
+    atexit.register(shutil.rmtree, _CACHE, True)
+  os.environ["BLX_COMPILATION_CACHE"] = _CACHE
+  jax.config.update("jax_compilation_cache_dir", _CACHE)
 
 from blx import envs
 

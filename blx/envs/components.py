@@ -226,6 +226,9 @@ def point(gear: float = 4.0, damping: float = 2.0) -> ComponentSpec:
   Viscous damping bounds its speed at ``gear / damping`` m/s. It has no colliders: it moves freely
   and costs almost nothing to simulate, the cheap default for CPU runs.
   """
+  if not gear > 0 or not damping >= 0:
+    raise ValueError(f"point: gear must be > 0 and damping >= 0 (damping < 0 feeds energy in), got "
+                     f"gear={gear!r}, damping={damping!r}")
   body = Element("body", {"name": "root", "pos": (0, 0, 0.1)})
   for name, axis in (("x", (1, 0, 0)), ("y", (0, 1, 0))):
     body.add("joint", name=name, type="slide", axis=axis, damping=damping, limited=False)

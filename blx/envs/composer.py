@@ -37,7 +37,7 @@ from typing import Any, Mapping
 from blx.envs import components as components_lib
 from blx.envs.components import GROUND, ComponentSpec
 from blx.envs.mjcf import Element, walk
-from blx.options import check_names
+from blx.options import check_names, finite_number
 
 __all__ = ["Scene", "compose", "apply_edits", "GLOBAL_OPTIONS", "TOP_KEYS", "COMPONENT_KEYS",
            "EDGE_KEYS"]
@@ -169,6 +169,8 @@ def compose(desc: Mapping[str, Any]) -> Scene:
     if "quat" in comp:
       comp["quat"] = _vector(f"{where}.quat", comp["quat"], 4)
     _check_keys(f"{where}.term_params", comp.get("term_params", {}), ("z_offset",))
+    if "z_offset" in comp.get("term_params", {}):
+      finite_number(f"{where}.term_params.z_offset", comp["term_params"]["z_offset"])
     for key in ("reward_fns",):
       if not isinstance(comp.get(key, {}), Mapping):
         raise _err(f"{where}.{key}", f"must be a dict of {{name: term desc}}, got {comp[key]!r}")

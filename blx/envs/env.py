@@ -7,10 +7,11 @@ from typing import Any, Mapping, NamedTuple
 
 import jax
 import jax.numpy as jnp
-import mujoco
 import numpy as np
 from flax import struct
-from mujoco import mjx
+
+from blx._mujoco import mujoco  # first: mujoco without its OpenGL backend (only rendering needs GL)
+from mujoco import mjx  # noqa: I001
 from mujoco.mjx._src import support as mjx_support  # contact_force_dim: forces of condim-3 contacts
 
 from blx.envs.composer import compose

@@ -31,8 +31,9 @@ def register_env(name: str, desc_or_factory: Desc | Callable[..., Desc], *,
   if not (callable(desc_or_factory) or isinstance(desc_or_factory, Mapping)):
     raise ValueError(f"register_env({name!r}): expected a desc dict or a factory, got "
                      f"{type(desc_or_factory).__name__}")
-  if not isinstance(episode_length, int) or isinstance(episode_length, bool) or episode_length < 1:
-    raise ValueError(f"register_env({name!r}): episode_length must be a positive int, got "
+  if (not isinstance(episode_length, int) or isinstance(episode_length, bool)
+      or not 1 <= episode_length <= wrappers.MAX_STEPS):
+    raise ValueError(f"register_env({name!r}): episode_length must be an int in 1..2**31 - 1, got "
                      f"{episode_length!r}")
   _ENVS[name] = desc_or_factory
   _EPISODE_LENGTHS[name] = episode_length

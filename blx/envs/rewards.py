@@ -36,7 +36,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from blx.envs.observers import SDCOMPS, Handle, root_quantity
-from blx.options import check_names, keyword_names
+from blx.options import check_names, finite_number, keyword_names
 
 __all__ = ["RewardTerm", "build_reward_term", "REWARD_TYPES", "WRAPPER_KEYS"]
 
@@ -74,10 +74,14 @@ def _never(value):
 
 def root_goal(owners, where, *, sdcomp: str = "pos", indices=None, target_goal=0.0) -> RawFn:
   axes = _axes(where, indices, sdcomp)
-  target = np.asarray(target_goal, np.float32)
-  if target.ndim > 1 or (target.ndim == 1 and target.shape[0] != len(axes)):
-    raise ValueError(f"{where}: target_goal={target_goal!r} must be a scalar or have one value per "
-                     f"index ({len(axes)})")
+  try:
+    target = np.asarray(target_goal, np.float32)
+  except (TypeError, ValueError):
+    target = np.full((2, 2), np.nan)  # not numbers: reported below
+  if (target.ndim > 1 or (target.ndim == 1 and target.shape[0] != len(axes))
+      or not np.all(np.isfinite(target))):
+    raise ValueError(f"{where}: target_goal={target_goal!r} must be a finite number or have one "
+                     f"finite number per index ({len(axes)})")
   x = _quantity(owners, sdcomp, axes)
   return lambda d, a: _never(-jnp.linalg.norm(x(d) - target))
 
@@ -166,9 +170,9 @@ def build_reward_term(name: str, spec: Any, owners: Sequence[Handle], where: str
     kind = "an edge" if len(owners) == 2 else "a component"
     raise ValueError(f"{where}: reward_type {reward_type!r} cannot be used on {kind}; it takes "
                      f"{' or '.join(map(str, counts))} owner(s)")
-  scale = float(kwargs.pop("scale", 1.0))
-  offset = float(kwargs.pop("offset", 0.0))
-  done_bonus = float(kwargs.pop("done_bonus", 0.0))
+  scale = finite_number(f"{where}.scale", kwargs.pop("scale", 1.0))
+  offset = finite_number(f"{where}.offset", kwargs.pop("offset", 0.0))
+  done_bonus = finite_number(f"{where}.done_bonus", kwargs.pop("done_bonus", 0.0))
   excluded = bool(kwargs.pop("exclude_from_score", False))
   check_names(f"{where} (reward_type {reward_type!r})", kwargs,
               keyword_names(builder, keyword_only=True), "key",

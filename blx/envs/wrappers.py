@@ -16,6 +16,8 @@ from blx.envs.env import State
 __all__ = ["Wrapper", "action_repeat", "episode", "auto_reset", "unwrap", "episode_steps",
            "resets_itself"]
 
+MAX_STEPS = 2**31 - 1  # step counters are 32-bit on the device
+
 
 class Wrapper:
   """Base wrapper: delegates everything to ``env``."""
@@ -68,8 +70,8 @@ class _ActionRepeat(Wrapper):
 
 def action_repeat(env, repeat: int):
   """Repeats each action ``repeat`` times; rewards and reward metrics are summed, done is any."""
-  if not isinstance(repeat, int) or isinstance(repeat, bool) or repeat < 1:
-    raise ValueError(f"action_repeat must be a positive int, got {repeat!r}")
+  if not isinstance(repeat, int) or isinstance(repeat, bool) or not 1 <= repeat <= MAX_STEPS:
+    raise ValueError(f"action_repeat must be an int in 1..2**31 - 1, got {repeat!r}")
   return env if repeat == 1 else _ActionRepeat(env, repeat)
 
 
@@ -110,8 +112,9 @@ def episode_steps(env, who: str = "episode_steps") -> int:
 def episode(env, length: int):
   """Ends episodes after ``length`` steps (of the unrepeated env), setting ``State.truncation`` = 1
   when time ran out."""
-  if not isinstance(length, int) or isinstance(length, bool) or length < 1:
-    raise ValueError(f"episode_length must be a positive int or None, got {length!r}")
+  if not isinstance(length, int) or isinstance(length, bool) or not 1 <= length <= MAX_STEPS:
+    raise ValueError(f"episode_length must be an int in 1..2**31 - 1 (or None: no time limit), "
+                     f"got {length!r}")
   return _Episode(env, length)
 
 

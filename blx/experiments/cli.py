@@ -19,7 +19,13 @@ import time
 
 __all__ = ["main"]
 
-DEFAULT_ENV, DEFAULT_OBJECTIVE, DEFAULT_SKILLS = "point", "diayn", 4
+DEFAULT_ENV, DEFAULT_OBJECTIVE = "point", "diayn"
+ENVIRONMENT = """environment variables:
+  BLX_COMPILATION_CACHE  where compiled programs are kept between runs (default
+                         ~/.cache/blx/jax); "off" turns the cache off
+  MUJOCO_GL              OpenGL backend for `blx render`: egl (default), osmesa, glfw, glx;
+                         the other commands need no OpenGL
+  BLX_DEBUG=1            show the traceback behind an error line"""
 
 
 class UsageError(Exception):
@@ -137,8 +143,6 @@ def _spec_from_args(args):
   objective = given.get("objective", DEFAULT_OBJECTIVE)
   pick = lambda group: {k.split(":", 1)[1]: v for k, v in given.items() if k.startswith(group)}
   options = pick("option:")
-  if objective in ("diayn", "diayn_full") and env == DEFAULT_ENV:
-    options.setdefault("num_skills", DEFAULT_SKILLS)
   return runs.RunSpec(env=env, objective=objective, objective_options=options,
                       ppo=pick("config:"), seeds=tuple(given.get("seeds", (0,))),
                       env_params=pick("env_param:"))
@@ -243,7 +247,8 @@ def cmd_render(args) -> int:
     raise UsageError(f"--seed-index {args.seed_index}: the run has {len(run.spec.seeds)} seed(s)")
   params = jax.tree.map(lambda x: x[args.seed_index], run.params)
   key = jax.random.PRNGKey(0)
-  if getattr(run.objective.spec, "prior", None) is not None:  # skills to choose from
+  prior = getattr(run.objective.spec, "prior", None)
+  if prior is not None:  # skills to choose from
     latents = metrics.latents_for_evaluation(run.objective, key, 4)
     chosen = list(range(latents.shape[0]))
     if args.skills:
@@ -252,16 +257,24 @@ def cmd_render(args) -> int:
       if bad:
         raise UsageError(f"--skills {bad}: valid skills are 0..{latents.shape[0] - 1}")
     latents = latents[np.asarray(chosen)]
+    if prior.kind == "categorical":
+      labels = [f"{run.spec.objective}: skill {k}" for k in chosen]
+    else:
+      labels = [f"{run.spec.objective}: z = ({', '.join(f'{v:+.2f}' for v in np.asarray(z))})"
+                for z in latents]
   else:
     if args.skills:
       raise UsageError(f"--skills: {run.spec.objective} has no skills")
     latents = jnp.zeros((1, run.objective.latent_size))
+    labels = [f"{run.spec.objective} on {run.spec.env}"]
   repeat = getattr(run.env, "action_repeat", 1)
   length = envs.episode_steps(run.env, "render") * repeat
   steps = min(args.steps or length, length) // repeat
   qpos = np.asarray(render.rollout_qpos(run, params, latents, key, steps=steps))
-  frames = np.concatenate([render.render_frames(run.env.mj_model, q, width=args.width,
-                                                height=args.height) for q in qpos])
+  frames = np.concatenate([
+      render.label_frames(render.render_frames(run.env.mj_model, q, width=args.width,
+                                               height=args.height), label)
+      for q, label in zip(qpos, labels)])
   out = args.out or os.path.join(args.dir, "video.mp4")
   fps = 1.0 / (run.env.dt * repeat)
   render.write_video(out, frames, fps=min(fps, 60.0))
@@ -282,18 +295,42 @@ def cmd_sweep(args) -> int:
   return 0
 
 
+def _train_epilog() -> str:
+  """Envs, objectives with their options, and PPO keys with their defaults, for ``train --help``."""
+  import dataclasses
+  import textwrap
+  with contextlib.redirect_stdout(io.StringIO()):  # mjx's optional-backend notice
+    from blx import envs, objectives, training
+  wrap = lambda text: textwrap.fill(text, 96, initial_indent="  ", subsequent_indent="    ")
+  lines = ["envs (`blx envs NAME` shows one, with its observation names):",
+           wrap(", ".join(envs.list_envs())), "",
+           "objectives and their options (--option KEY=VALUE):"]
+  for name in objectives.list_objectives():
+    options = [o for o in objectives.options_of(name) if o != "env"]
+    lines.append(wrap(f"{name}: {', '.join(options) or '(none)'}"))
+  config = training.ppo_defaults("ant")
+  lines += ["", "PPO config keys (--config KEY=VALUE), with the ant row's defaults; point, humanoid",
+            "and halfcheetah have their own rows (blx.training.ppo_defaults(ENV)):",
+            wrap(", ".join(f"{f.name}={getattr(config, f.name)!r}"
+                           for f in dataclasses.fields(config)))]
+  return "\n".join(lines)
+
+
 def _parser() -> argparse.ArgumentParser:
-  parser = argparse.ArgumentParser(prog="blx", description="Compose, train, evaluate, render and "
-                                   "sweep reward-free behaviour on MuJoCo MJX.")
+  parser = argparse.ArgumentParser(
+      prog="blx", description="Compose, train, evaluate, render and sweep reward-free behaviour "
+      "on MuJoCo MJX.", formatter_class=argparse.RawDescriptionHelpFormatter, epilog=ENVIRONMENT)
   sub = parser.add_subparsers(dest="command", required=True)
   p = sub.add_parser("envs", help="list envs and components, or describe one env")
   p.add_argument("name", nargs="?")
   p.set_defaults(fn=cmd_envs)
 
-  p = sub.add_parser("train", help="train an objective on an env into a run directory")
+  p = sub.add_parser("train", help="train an objective on an env into a run directory",
+                     formatter_class=argparse.RawDescriptionHelpFormatter, epilog=_train_epilog())
   p.add_argument("--env", default=None, help=f"a registered env (default {DEFAULT_ENV})")
   p.add_argument("--objective", default=None, help=f"default {DEFAULT_OBJECTIVE}")
-  p.add_argument("--num-skills", type=int, default=None)
+  p.add_argument("--num-skills", type=int, default=None,
+                 help="skills of diayn / diayn_full (default 8, as the API and sweeps)")
   p.add_argument("--obs-indices", default=None,
                  help="a name such as vel_xy (see `blx envs ENV`) or a list such as [13,14]")
   p.add_argument("--steps", type=int, default=None, help="env steps (default: the env's PPO row)")
@@ -340,17 +377,22 @@ def _quiet_imports(command: str) -> None:
     from blx.experiments import render
     render.ensure_headless_gl()
   with contextlib.redirect_stdout(io.StringIO()):
+    import blx._mujoco  # noqa: F401  (mujoco without OpenGL, whatever MUJOCO_GL says)
     import mujoco.mjx  # noqa: F401
 
 
 def main(argv=None) -> int:
   args = _parser().parse_args(argv)
   _quiet_imports(args.command)
+  if args.command != "envs":
+    from blx.experiments import compile_cache
+    compile_cache.enable()
+  from blx.experiments.render import GLError
   from blx.experiments.runs import RunError
   from blx.training import NonFiniteError
   try:
     return args.fn(args)
-  except (UsageError, RunError, ValueError, OSError, NonFiniteError) as e:  # expected: one line
+  except (UsageError, RunError, ValueError, OSError, NonFiniteError, GLError) as e:  # one line
     if os.environ.get("BLX_DEBUG"):
       raise
     message = str(e).splitlines()[0] if str(e) else type(e).__name__

@@ -42,10 +42,54 @@ def curve_titles(keys, objective) -> dict[str, str]:
   return titles
 
 
-def training_curves(history: list[dict], path: str, *, titles: dict[str, str] | None = None
-                    ) -> list[str]:
-  """A grid of curves (mean over seeds, band = min..max) against env steps; returns the keys.
-  ``titles`` replaces a panel's title (default: its key)."""
+# What a training-curve panel's y axis measures.
+YLABELS = {
+    "eval/episode_reward": "objective's reward per episode",
+    "eval/episode_score": "env's score per episode",
+    "eval/mi": "MI(s; z) (nats)",
+    "eval/entropy": "H(s) (nats)",
+    "eval/lgr": "LGR (distance to goal)",
+    "eval/energy_distance": "energy distance to target",
+    "loss/disc": "discriminator loss",
+    "disc/accuracy": "discriminator accuracy",
+    "loss/policy": "PPO policy loss",
+    "policy/entropy": "policy entropy (nats)",
+}
+
+
+def _steps_formatter():
+  from matplotlib.ticker import FuncFormatter
+
+  def fmt(x, _):
+    for div, unit in ((1e9, "G"), (1e6, "M"), (1e3, "k")):
+      if abs(x) >= div:
+        return f"{x / div:g}{unit}"
+    return f"{x:g}"
+  return FuncFormatter(fmt)
+
+
+def curve_ylabel(key: str) -> str:
+  """The y-axis label of a training-curve panel."""
+  if re.match(r"^eval/mode_share/\d+$", key):
+    return "share of samples"
+  if re.match(r"^eval/episode_mode_share/\d+$", key):
+    return "share of episodes"
+  return YLABELS.get(key, key.rsplit("/", 1)[-1].replace("_", " "))
+
+
+def band_caption(num_seeds: int) -> str:
+  """What the line and the band of a training curve are."""
+  spread = (f"line: mean over {num_seeds} seeds, band: lowest to highest seed" if num_seeds > 1
+            else "one seed")
+  return (f"{spread}. eval/*: deterministic evaluation episodes after each chunk; loss/*, disc/*, "
+          "policy/*: means over the chunk's training iterations.")
+
+
+def training_curves(history: list[dict], path: str, *, titles: dict[str, str] | None = None,
+                    title: str = "") -> list[str]:
+  """A grid of curves (mean over seeds, band = min..max) against env steps, each with its y label
+  and a caption saying what line and band are; returns the keys. ``titles`` replaces a panel's
+  title (default: its key); ``title`` heads the figure."""
   plt = _pyplot()
   keys = [k for p in CURVE_PATTERNS for k in (history[0] if history else {}) if re.match(p, k)]
   keys = list(dict.fromkeys(keys))
@@ -60,10 +104,16 @@ def training_curves(history: list[dict], path: str, *, titles: dict[str, str] | 
       ax.fill_between(steps, values.min(1), values.max(1), color="C0", alpha=0.2)
     ax.set_title((titles or {}).get(key, key), fontsize=9)
     ax.set_xlabel("env steps", fontsize=8)
+    ax.xaxis.set_major_formatter(_steps_formatter())
+    ax.set_ylabel(curve_ylabel(key), fontsize=8)
     ax.tick_params(labelsize=7)
   for ax in list(axes.flat)[len(keys):]:
     ax.axis("off")
-  fig.tight_layout()
+  seeds = len(np.atleast_1d(history[0][keys[0]])) if history and keys else 1
+  if title:
+    fig.suptitle(title, fontsize=10)
+  fig.text(0.5, 0.005, band_caption(seeds), ha="center", va="bottom", fontsize=7, color="0.3")
+  fig.tight_layout(rect=(0, 0.03, 1, 1))
   fig.savefig(path, dpi=90)
   plt.close(fig)
   return keys
@@ -182,7 +232,8 @@ def write_all(run, history: list[dict], *, seed_index: int = 0, key_seed: int = 
   written = []
   if history:
     path = os.path.join(out_dir, "training_curves.png")
-    training_curves(history, path, titles=curve_titles(history[0], run.objective))
+    training_curves(history, path, titles=curve_titles(history[0], run.objective),
+                    title=f"{run.objective.name} on {run.spec.env}: training curves")
     written.append(path)
   if run.params is None:
     return written

@@ -4,7 +4,23 @@ from __future__ import annotations
 
 import os
 
-__all__ = ["ensure_headless_gl", "rollout_qpos", "render_frames", "write_video"]
+__all__ = ["GLError", "ensure_headless_gl", "load_gl_backend", "rollout_qpos", "render_frames",
+           "label_frames", "write_video"]
+
+# What each MUJOCO_GL backend needs on the machine.
+GL_NEEDS = {
+    "egl": "EGL: libEGL with a driver, NVIDIA's own or Mesa's (apt install libegl1 libegl-mesa0 "
+           "libgl1-mesa-dri)",
+    "osmesa": "OSMesa, software rendering (apt install libosmesa6; dnf install mesa-libOSMesa)",
+    "glfw": "GLFW and a display (apt install libglfw3, and DISPLAY set); without a display use "
+            "MUJOCO_GL=egl or osmesa",
+    "glx": "GLX and a display (apt install libgl1, and DISPLAY set); without a display use "
+           "MUJOCO_GL=egl or osmesa",
+}
+
+
+class GLError(RuntimeError):
+  """No usable OpenGL backend for rendering; the message names what to install."""
 
 
 def ensure_headless_gl() -> None:
@@ -12,6 +28,40 @@ def ensure_headless_gl() -> None:
   os.environ.setdefault("MUJOCO_GL", "egl")
   if os.environ["MUJOCO_GL"] in ("egl", "osmesa"):
     os.environ.setdefault("PYOPENGL_PLATFORM", os.environ["MUJOCO_GL"])
+
+
+def _gl_error(backend: str, cause: BaseException | str) -> GLError:
+  return GLError(f"rendering needs an OpenGL backend, and MUJOCO_GL={backend} could not be loaded "
+                 f"({cause}). It needs {GL_NEEDS[backend]}. Only rendering needs OpenGL: train, "
+                 "eval and sweep run without it")
+
+
+def load_gl_backend() -> None:
+  """Loads the OpenGL backend that ``MUJOCO_GL`` names (EGL unless set) into mujoco's renderer.
+
+  blx imports mujoco with its backend off (``blx._mujoco``), so this is the one place a backend
+  loads. Raises :class:`GLError` naming the library to install for that backend, or the valid
+  values of ``MUJOCO_GL``.
+  """
+  import importlib
+
+  from blx._mujoco import mujoco  # noqa: F401  (mujoco itself, without GL)
+  ensure_headless_gl()
+  backend = os.environ["MUJOCO_GL"].lower().strip()
+  if backend not in GL_NEEDS:
+    raise GLError(f"rendering needs an OpenGL backend: MUJOCO_GL={os.environ['MUJOCO_GL']!r} is "
+                  f"not one of {sorted(GL_NEEDS)} (unset, it is egl)")
+  try:
+    from mujoco.rendering.classic import gl_context
+  except ImportError:  # mujoco before 3.4 kept it at the top level
+    from mujoco import gl_context
+  try:
+    importlib.reload(gl_context)  # reads MUJOCO_GL now
+    context = getattr(gl_context, "GLContext", None)
+  except Exception as e:  # pyopengl fails with AttributeError, ctypes with OSError, ...
+    raise _gl_error(backend, f"{type(e).__name__}: {e}") from None
+  if context is None or context.__name__ == "_MissingGLContext":
+    raise _gl_error(backend, "mujoco found no GL context class for it")
 
 
 def rollout_qpos(run, params, latents, key, *, steps: int):
@@ -43,10 +93,11 @@ def rollout_qpos(run, params, latents, key, *, steps: int):
 
 def render_frames(mj_model, qpos, *, width: int = 320, height: int = 240):
   """RGB frames ``[T, H, W, 3]`` (uint8) of one trajectory ``qpos [T, nq]``, the camera tracking
-  the first body."""
-  ensure_headless_gl()
-  import mujoco
+  the first body. Raises :class:`GLError` when no OpenGL backend can be loaded."""
+  load_gl_backend()
   import numpy as np
+
+  from blx._mujoco import mujoco
 
   data = mujoco.MjData(mj_model)
   camera = mujoco.MjvCamera()
@@ -61,11 +112,8 @@ def render_frames(mj_model, qpos, *, width: int = 320, height: int = 240):
   mj_model.vis.global_.offheight = max(mj_model.vis.global_.offheight, height)
   try:
     renderer = mujoco.Renderer(mj_model, height, width)
-  except Exception as e:  # no usable OpenGL: say what to install
-    raise RuntimeError(
-        f"blx render: MuJoCo could not open a headless OpenGL context with MUJOCO_GL="
-        f"{os.environ.get('MUJOCO_GL')} ({e}). Install EGL (apt install libegl1 libgl1-mesa-dri) "
-        "or OSMesa (apt install libosmesa6) and set MUJOCO_GL=egl or osmesa") from None
+  except Exception as e:  # the backend loaded but opens no context (no device, no display)
+    raise _gl_error(os.environ["MUJOCO_GL"].lower().strip(), f"{type(e).__name__}: {e}") from None
   with renderer:
     for q in np.asarray(qpos):
       data.qpos[:] = q
@@ -73,6 +121,28 @@ def render_frames(mj_model, qpos, *, width: int = 320, height: int = 240):
       renderer.update_scene(data, camera)
       frames.append(renderer.render().copy())
   return np.stack(frames)
+
+
+def label_frames(frames, text: str):
+  """``frames [T, H, W, 3]`` with ``text`` in a dark band across the top (e.g. "skill 3"), so a
+  video of several episodes says which one is playing. Pillow (matplotlib's own dependency) draws
+  it."""
+  import numpy as np
+  from PIL import Image, ImageDraw, ImageFont
+
+  frames = np.asarray(frames)
+  band = max(12, frames.shape[1] // 12)
+  try:  # a scalable font where Pillow has FreeType, else its small bitmap font
+    font = ImageFont.load_default(size=band - 4)
+  except (TypeError, OSError, ImportError):
+    font = ImageFont.load_default()
+  out = np.array(frames, copy=True)
+  out[:, :band] = (out[:, :band] * 0.35).astype(out.dtype)  # darken, keep the scene visible
+  stamp = Image.fromarray(np.zeros((band, frames.shape[2], 3), np.uint8))
+  ImageDraw.Draw(stamp).text((4, 1), text, fill=(255, 255, 255), font=font)
+  ink = np.asarray(stamp)
+  out[:, :band] = np.maximum(out[:, :band], ink[None])
+  return out
 
 
 def write_video(path: str, frames, *, fps: float) -> None:

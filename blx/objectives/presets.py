@@ -71,6 +71,10 @@ def resolve_indices(obs_indices: Indices, env: Any = None, *, who: str) -> tuple
       out.append(int(item))
     else:
       raise ValueError(f"{who}: obs_indices must be non-negative ints or names, got {item!r}")
+  repeated = sorted({i for i in out if out.count(i) > 1})
+  if repeated:
+    raise ValueError(f"{who}: obs_indices {out} repeat {repeated}; each observation dimension is "
+                     "one feature, so indices are distinct")
   return tuple(out)
 
 
@@ -110,11 +114,8 @@ def _check_spectral(who: str, spectral_iteration: Any) -> None:
                      f"are {list(SPECTRAL_ITERATIONS)}")
 
 
-def _check_options(who: str, *, logits_clip: float | None = None,
-                   obs_scale: float | None = None) -> None:
-  """``logits_clip`` and ``obs_scale``, where given, must be numbers > 0."""
-  given = {k: v for k, v in dict(logits_clip=logits_clip, obs_scale=obs_scale).items()
-           if v is not None}
+def _check_options(who: str, **given: Any) -> None:
+  """The given options (``logits_clip``, ``obs_scale``) must be numbers > 0 (None is not one)."""
   _check_types(who, numbers=given)
   for name, value in given.items():
     if not value > 0:
@@ -265,7 +266,7 @@ def fixed_gcrl(*, obs_indices: Indices = None, env: Any = None, obs_scale: float
   """Goal-conditioned RL to one fixed goal z = obs_scale in every indexed dimension;
   r = 4.5 d - 1/2 ||z - s_idx||^2 + const normaliser terms (>= 0 within 3 of the goal)."""
   indices = _need_indices("fixed_gcrl", obs_indices, env)
-  _check_types("fixed_gcrl", numbers=dict(obs_scale=obs_scale))  # used before mimax_objective
+  _check_options("fixed_gcrl", obs_scale=obs_scale)  # used before mimax_objective
   return _goal("fixed_gcrl", priors.deterministic_prior(np.full(len(indices), obs_scale)),
                indices, obs_scale, env_reward_multiplier)
 
@@ -274,7 +275,7 @@ def gcrl(*, obs_indices: Indices = None, env: Any = None, obs_scale: float = 5.0
          env_reward_multiplier: float = 0.0) -> Objective:
   """Goal-conditioned RL: z ~ U(-obs_scale/2, obs_scale/2)^d, q(z|s) = N(s_idx, I)."""
   indices = _need_indices("gcrl", obs_indices, env)
-  _check_types("gcrl", numbers=dict(obs_scale=obs_scale))  # used before mimax_objective
+  _check_options("gcrl", obs_scale=obs_scale)  # used before mimax_objective
   half = 0.5 * obs_scale
   return _goal("gcrl", priors.uniform_prior(-half, half, len(indices)), indices, obs_scale,
                env_reward_multiplier)
@@ -346,8 +347,8 @@ def diayn_full(*, num_skills: int = 8, obs_scale: float = 5.0, logits_clip: floa
 
 def _default_target(name, target, indices, obs_scale, num_modes, target_seed) -> Target:
   if isinstance(target_seed, bool) or not isinstance(target_seed, (int, np.integer)) \
-      or target_seed < 0:
-    raise ValueError(f"{name}: target_seed must be an int >= 0, got {target_seed!r}")
+      or not 0 <= target_seed <= 2**31 - 1:
+    raise ValueError(f"{name}: target_seed must be an int in 0..2**31 - 1, got {target_seed!r}")
   if target is None:
     if len(indices) not in (1, 2):
       raise ValueError(f"{name}: the default target is a {num_modes}-mode Gaussian in 1 or 2 "

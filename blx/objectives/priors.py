@@ -11,7 +11,9 @@ import distrax
 import jax
 import jax.numpy as jnp
 
-__all__ = ["Prior", "uniform_prior", "categorical_prior", "deterministic_prior"]
+__all__ = ["Prior", "uniform_prior", "categorical_prior", "deterministic_prior", "MAX_SKILLS"]
+
+MAX_SKILLS = 65_536  # one-hot skills beyond this would not fit a discriminator's output anyway
 
 
 class Prior(NamedTuple):
@@ -35,8 +37,10 @@ def uniform_prior(low: float, high: float, dim: int) -> Prior:
 
 def categorical_prior(num_skills: int) -> Prior:
   """Uniform over ``num_skills`` one-hot skills: log p = -log K."""
-  if not isinstance(num_skills, int) or isinstance(num_skills, bool) or num_skills < 2:
-    raise ValueError(f"categorical_prior: num_skills must be an int >= 2, got {num_skills!r}")
+  if (not isinstance(num_skills, int) or isinstance(num_skills, bool)
+      or not 2 <= num_skills <= MAX_SKILLS):
+    raise ValueError(f"categorical_prior: num_skills must be an int in 2..{MAX_SKILLS} (a skill is "
+                     f"a one-hot vector of that size), got {num_skills!r}")
   dist = distrax.OneHotCategorical(logits=jnp.zeros(num_skills), dtype=jnp.float32)
   return Prior(sample=lambda key: dist.sample(seed=key), log_prob=dist.log_prob, dim=num_skills,
                kind="categorical")

@@ -72,7 +72,7 @@ def test_render_writes_a_video_with_frames_of_the_right_size(trained, tmp_path):
   proc = subprocess.run([sys.executable, "-m", "blx.experiments.cli", "render", trained,
                          "--skills", "0,2", "--width", "96", "--height", "64", "--out", out],
                         capture_output=True, text=True, env=env, timeout=600)
-  if "could not open a headless OpenGL context" in proc.stderr:
+  if "rendering needs an OpenGL backend" in proc.stderr:
     pytest.skip("no headless OpenGL on this machine (install libegl1 or libosmesa6)")
   assert proc.returncode == 0, proc.stderr[-2000:]
   import imageio.v3 as iio
@@ -80,6 +80,41 @@ def test_render_writes_a_video_with_frames_of_the_right_size(trained, tmp_path):
   # 2 skills x (20 steps + the first frame), 64 x 96 RGB, not blank.
   assert frames.shape == (42, 64, 96, 3)
   assert frames.std() > 1.0
+
+
+def _cli(args, gl, timeout=600):
+  env = {**os.environ, "PYTHONPATH": ROOT, "MUJOCO_GL": gl}
+  env.pop("PYOPENGL_PLATFORM", None)
+  return subprocess.run([sys.executable, *args], capture_output=True, text=True, env=env,
+                        timeout=timeout)
+
+
+def test_only_rendering_needs_opengl(trained):
+  # A MUJOCO_GL that names no backend breaks a plain `import mujoco` ...
+  plain = _cli(["-c", "import mujoco"], gl="nonsense")
+  assert plain.returncode != 0 and "MUJOCO_GL" in plain.stderr
+  # ... but not blx: eval runs and prints its metrics,
+  proc = _cli(["-m", "blx.experiments.cli", "eval", trained, "--json"], gl="nonsense")
+  assert proc.returncode == 0, proc.stderr[-2000:]
+  assert "eval/mi" in json.loads(proc.stdout)["summary"]
+  # and render says, in one line with exit status 2, which values are valid.
+  proc = _cli(["-m", "blx.experiments.cli", "render", trained, "--steps", "2"], gl="nonsense")
+  assert proc.returncode == 2
+  assert "Traceback" not in proc.stderr
+  assert "MUJOCO_GL='nonsense' is not one of ['egl', 'glfw', 'glx', 'osmesa']" in proc.stderr
+
+
+def test_a_missing_gl_library_is_named():
+  import ctypes.util
+  if ctypes.util.find_library("OSMesa"):
+    pytest.skip("OSMesa is installed here, so MUJOCO_GL=osmesa loads")
+  from blx.experiments import render
+  proc = _cli(["-c", "from blx.experiments import render; render.load_gl_backend()"],
+              gl="osmesa")
+  assert proc.returncode != 0
+  assert "GLError: rendering needs an OpenGL backend, and MUJOCO_GL=osmesa could not be loaded" \
+      in proc.stderr
+  assert render.GL_NEEDS["osmesa"] in proc.stderr and "libosmesa6" in render.GL_NEEDS["osmesa"]
 
 
 def test_sweep_writes_one_run_per_point_and_aggregate_tables(tmp_path, capsys):
@@ -128,7 +163,7 @@ def test_sweep_writes_one_run_per_point_and_aggregate_tables(tmp_path, capsys):
     (["train", "--config", "num_envs"], "expected key=value"),
     (["train", "--config", "episode_length=20"],
      "episode_length belong to the env, not to PPO: create the env with them"),
-    (["train", "--env-param", "episode_length=0"], "episode_length must be a positive int"),
+    (["train", "--env-param", "episode_length=0"], "episode_length must be an int in 1..2**31 - 1"),
     (["train", "--seeds", "a,b"], "expected comma-separated ints"),
     (["train", "--option", "bogus=1"], "unknown option(s) ['bogus']"),
     (["train", "--config", "learning_rate=abc"], "learning_rate must be a number, got 'abc'"),
@@ -139,7 +174,7 @@ def test_sweep_writes_one_run_per_point_and_aggregate_tables(tmp_path, capsys):
     (["train", "--option", "env_reward_multiplier=1e999"], "must be finite"),
     (["train", "--option", "spectral_norm=maybe"], "spectral_norm must be True or False"),
     (["train", "--objective", "gcrl", "--option", "obs_scale=big"], "obs_scale must be a number"),
-    (["train", "--num-skills", "1"], "num_skills must be an int >= 2, got 1"),
+    (["train", "--num-skills", "1"], "num_skills must be an int in 2..65536 (a skill is"),
     (["eval", "/nonexistent/run"], "no run directory at"),
     (["envs", "nope"], "unknown env 'nope'"),
     (["train", "--steps", str(10**23)], "num_timesteps must be a positive int up to 2**31 - 1"),
@@ -256,3 +291,17 @@ def test_unwritable_output_is_one_line(tmp_path, capsys):
   assert "Traceback" not in err
   last = err.strip().splitlines()[-1]
   assert last.startswith("blx train: error: Not a directory") and str(blocker) in last, err
+
+
+def test_train_help_lists_envs_objectives_and_config_defaults(capsys):
+  with pytest.raises(SystemExit) as info:
+    cli.main(["train", "--help"])
+  assert info.value.code == 0
+  out = capsys.readouterr().out
+  from blx import envs, objectives
+  assert all(name in out for name in envs.list_envs())
+  assert all(f"  {name}: " in out for name in objectives.list_objectives())
+  assert "num_envs=2048" in out and "entropy_cost=0.01" in out
+  assert "default 8, as the API" in out  # one DIAYN skill count for the CLI, the API and sweeps
+  spec = cli._spec_from_args(cli._parser().parse_args(["train"]))
+  assert "num_skills" not in spec.objective_options

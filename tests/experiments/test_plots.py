@@ -15,3 +15,31 @@ def test_mode_share_panels_name_the_mode_they_count():
   # an objective without a target keeps the keys
   assert plots.curve_titles(["eval/mode_share/0"], objectives.task()) == {
       "eval/mode_share/0": "eval/mode_share/0"}
+
+
+def test_curve_panels_say_what_they_measure_and_what_the_band_is(tmp_path):
+  assert plots.curve_ylabel("eval/mi") == "MI(s; z) (nats)"
+  assert plots.curve_ylabel("eval/mode_share/1") == "share of samples"
+  assert plots.curve_ylabel("eval/episode_mode_share/0") == "share of episodes"
+  assert plots.curve_ylabel("train/some_new_thing") == "some new thing"  # unknown keys stay legible
+  assert plots.band_caption(10).startswith("line: mean over 10 seeds, band: lowest to highest seed")
+  assert plots.band_caption(1).startswith("one seed")
+  history = [{"env_steps": 1e6 * (i + 1), "eval/mi": [0.1 * i, 0.2 * i], "loss/policy": [1.0, 2.0]}
+             for i in range(3)]
+  path = tmp_path / "curves.png"
+  assert plots.training_curves(history, str(path), title="diayn on point") == ["eval/mi",
+                                                                                "loss/policy"]
+  assert path.stat().st_size > 0
+
+
+def test_video_frames_carry_their_label_and_keep_the_scene():
+  import numpy as np
+
+  from blx.experiments import render
+  frames = np.full((3, 240, 160, 3), 128, np.uint8)
+  zero, three = render.label_frames(frames, "diayn: skill 0"), render.label_frames(frames, "skill 3")
+  band = 240 // 12  # the band is a twelfth of the height
+  assert (zero[:, band:] == frames[:, band:]).all()  # the scene below the band is untouched
+  assert (zero[:, :band] != frames[:, :band]).any()  # the band is drawn
+  assert (zero[:, :band] != three[:, :band]).any()  # and says which episode this is
+  assert (zero[0] == zero[2]).all()  # the same label on every frame of an episode

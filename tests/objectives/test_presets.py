@@ -110,7 +110,7 @@ def test_target_seed_draws_the_default_targets_samples():
   assert at_plus(objectives.gail(obs_indices=(2, 3), obs_scale=8.0)) == 131
   assert at_plus(objectives.gail(obs_indices=(2, 3), obs_scale=8.0, target_seed=3)) == 120
   assert at_plus(objectives.mle(obs_indices=(2, 3), obs_scale=8.0, target_seed=3)) == 120
-  with pytest.raises(ValueError, match="target_seed must be an int >= 0, got '3'"):
+  with pytest.raises(ValueError, match="target_seed must be an int in 0..2.*, got '3'"):
     objectives.airl(obs_indices=(2, 3), target_seed="3")
   with pytest.raises(ValueError, match="target_seed=2 draws the default.*ignored"):
     objectives.gail(obs_indices=(0, 1), target_seed=2,
