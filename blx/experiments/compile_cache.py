@@ -39,7 +39,7 @@ def enable(directory: str | None = None) -> str | None:
   """
   import jax
 
-  already = jax.config.jax_compilation_cache_dir
+  already = getattr(jax.config, "jax_compilation_cache_dir", None)
   if already:
     return already
   setting = os.environ.get(ENV_VAR, "").strip()

@@ -12,7 +12,7 @@ import numpy as np
 
 from blx import envs, metrics
 
-__all__ = ["training_curves", "skills", "density", "discriminator", "write_all"]
+__all__ = ["training_curves", "skills", "paths", "density", "discriminator", "write_all"]
 
 CURVE_PATTERNS = (r"^eval/episode_reward$", r"^eval/episode_score$", r"^eval/mi$",
                   r"^eval/entropy$", r"^eval/lgr$", r"^eval/energy_distance$", r"^eval/mode_share/\d+$",
@@ -119,23 +119,32 @@ def training_curves(history: list[dict], path: str, *, titles: dict[str, str] | 
   return keys
 
 
+def skill_colours(num: int):
+  """``num`` clearly distinct colours (tab10, then tab20, then evenly spaced hues)."""
+  plt = _pyplot()
+  if num <= 10:
+    return plt.get_cmap("tab10")(np.arange(num))
+  if num <= 20:
+    return plt.get_cmap("tab20")(np.arange(num))
+  return plt.get_cmap("hsv")(np.linspace(0, 1, num, endpoint=False))
+
+
 def skills(states: np.ndarray, path: str, *, labels: list[str], scale: float,
            title: str = "") -> None:
-  """Trajectories in the feature space, one colour per skill: ``states [L, M, T, D]``, D >= 1
-  (pairs of dimensions side by side; a 1-D feature is plotted against time)."""
+  """Each skill's cloud of states in the feature space, one colour per skill: ``states
+  [L, M, T, D]``, D >= 1 (pairs of dimensions side by side; a 1-D feature against time)."""
   plt = _pyplot()
   num, _, steps, dim = states.shape
   pairs = [(i, i + 1) for i in range(0, dim - 1, 2)] or [(0, None)]
   fig, axes = plt.subplots(1, len(pairs), figsize=(4.6 * len(pairs), 4.2), squeeze=False)
-  colours = plt.get_cmap("hsv")(np.linspace(0, 1, num, endpoint=False))
+  colours = skill_colours(num)
   for ax, (a, b) in zip(axes.flat, pairs):
     for k in range(num):
-      for m in range(states.shape[1]):
-        x = states[k, m, :, a]
-        y = states[k, m, :, b] if b is not None else x
-        x = x if b is not None else np.arange(steps)
-        ax.plot(x, y, color=colours[k], alpha=0.5, lw=1, label=f"skill {k}" if m == 0 else None)
-        ax.scatter(x[-1:], y[-1:], color=colours[k], s=12)
+      x = states[k, :, :, a]
+      y = states[k, :, :, b] if b is not None else x
+      x = x if b is not None else np.broadcast_to(np.arange(steps), x.shape)
+      ax.scatter(x.ravel(), y.ravel(), color=colours[k], s=4, alpha=0.5, linewidths=0)
+      ax.scatter([], [], color=colours[k], s=16, label=f"skill {k}")  # legend marker
     ax.set_xlabel(labels[a] if b is not None else "step")
     ax.set_ylabel(labels[b] if b is not None else labels[a])
     if b is not None:
@@ -144,7 +153,32 @@ def skills(states: np.ndarray, path: str, *, labels: list[str], scale: float,
       ax.set_aspect("equal")
   if num <= 12:
     axes.flat[0].legend(fontsize=7, loc="best")
-  fig.suptitle(title, fontsize=10)
+  fig.suptitle(f"{title}: states per skill" if title else "states per skill", fontsize=10)
+  fig.tight_layout()
+  fig.savefig(path, dpi=90)
+  plt.close(fig)
+
+
+def paths(xy: np.ndarray, path: str, *, body: str, title: str = "") -> None:
+  """Where each skill takes the agent: the xy position of ``body`` over each episode, ``xy
+  [L, M, T, 2]``, one colour per skill, a circle at the start and a dot at the end."""
+  plt = _pyplot()
+  num = xy.shape[0]
+  colours = skill_colours(num)
+  fig, ax = plt.subplots(figsize=(4.8, 4.4))
+  for k in range(num):
+    for m in range(xy.shape[1]):
+      ax.plot(xy[k, m, :, 0], xy[k, m, :, 1], color=colours[k], lw=1, alpha=0.7,
+              label=f"skill {k}" if m == 0 else None)
+      ax.scatter(xy[k, m, -1:, 0], xy[k, m, -1:, 1], color=colours[k], s=14)
+  ax.scatter(xy[:, :, 0, 0].ravel(), xy[:, :, 0, 1].ravel(), facecolors="none", edgecolors="k",
+             s=30, label="start")
+  ax.set_xlabel(f"{body} x position (m)")
+  ax.set_ylabel(f"{body} y position (m)")
+  ax.set_aspect("equal", adjustable="datalim")
+  if num <= 12:
+    ax.legend(fontsize=7, loc="best")
+  fig.suptitle(f"{title}: paths" if title else "paths", fontsize=10)
   fig.tight_layout()
   fig.savefig(path, dpi=90)
   plt.close(fig)
@@ -246,11 +280,16 @@ def write_all(run, history: list[dict], *, seed_index: int = 0, key_seed: int = 
   if plot == "skills":
     indices = np.asarray(metrics.eval_indices(run.objective))
     latents = metrics.latents_for_evaluation(run.objective, key, 8)
-    states = jax.jit(lambda p, z, k: metrics.rollout(
-        run.env, run.policy, p, z, k, episodes_per_latent=3))(params, latents, key)
+    body = envs.unwrap(run.env).mj_model.body(1).name  # the first body: the agent's root
+    states, xy = jax.jit(lambda p, z, k: metrics.rollout(
+        run.env, run.policy, p, z, k, episodes_per_latent=3,
+        record=lambda s, a, n: (n.obs, n.data.xpos[:, 1, :2])))(params, latents, key)
     path = os.path.join(out_dir, "skills.png")
     skills(np.asarray(states[..., indices]), path, labels=feature_labels(run.env, indices),
            scale=spec.obs_scale, title=name)
+    written.append(path)
+    path = os.path.join(out_dir, "paths.png")
+    paths(np.asarray(xy), path, body=body, title=name)
     written.append(path)
   elif plot == "density":
     indices = np.asarray(spec.obs_indices)

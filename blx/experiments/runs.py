@@ -7,8 +7,9 @@ A run directory holds:
 * ``checkpoint/``: the training state of every seed (``blx.training.checkpoint``);
 * ``metrics.csv``: one row per evaluation and seed;
 * ``eval.json``: the final metrics of ``blx eval``;
-* ``plots/``: ``training_curves.png``, and ``skills.png`` (MI-max) or ``density.png`` and
-  ``discriminator.png`` (D-min);
+* ``plots/``: ``training_curves.png``, and ``skills.png`` (each skill's cloud in the feature space)
+  and ``paths.png`` (where each skill takes the agent) for MI-max, or ``density.png`` and
+  ``discriminator.png`` for D-min;
 * ``video.mp4`` once rendered.
 """
 

@@ -34,8 +34,10 @@ __all__ = ["rollout", "latents_for_evaluation", "eval_indices", "mimax_evaluator
 
 def rollout(env: Any, policy: Callable, params: dict, latents: jax.Array, key: jax.Array, *,
             episodes_per_latent: int, conditions_policy: bool = True,
-            deterministic: bool = False) -> jax.Array:
-  """Episodes for each latent: observations ``[L, M, T, O]`` (T policy steps).
+            deterministic: bool = False, record: Callable | None = None) -> Any:
+  """Episodes for each latent: observations ``[L, M, T, O]`` (T policy steps), or with ``record``
+  (``(state, action, next_state) -> pytree`` of batched leaves ``[N, ...]``) that pytree, each leaf
+  ``[L, M, T, ...]``.
 
   ``env`` runs as given: one episode is its ``episode_length`` (over its ``action_repeat``) policy
   steps. Actions are sampled from the policy (as Braxlines' evaluation) unless ``deterministic``,
@@ -55,10 +57,11 @@ def rollout(env: Any, policy: Callable, params: dict, latents: jax.Array, key: j
     return policy(params, obs, z if conditions_policy else None, key=step_key,
                   deterministic=deterministic)
 
-  _, obs = envs_lib.rollout(env, act, state, steps, action_key,
-                            lambda state, action, next_state: next_state.obs)
-  obs = jnp.swapaxes(obs, 0, 1)  # [N, T, O]
-  return obs.reshape((num_latents, episodes_per_latent) + obs.shape[1:])
+  record = record or (lambda state, action, next_state: next_state.obs)
+  _, out = envs_lib.rollout(env, act, state, steps, action_key, record)
+  return jax.tree.map(  # [T, N, ...] -> [L, M, T, ...]
+      lambda x: jnp.swapaxes(x, 0, 1).reshape((num_latents, episodes_per_latent, steps)
+                                              + x.shape[2:]), out)
 
 
 def latents_for_evaluation(objective: Objective, key: jax.Array, num_latents: int) -> jax.Array:

@@ -33,7 +33,8 @@ def trained(tmp_path_factory):
 def test_train_writes_a_complete_run_directory(trained):
   names = set(os.listdir(trained))
   assert {"config.json", "metrics.csv", "eval.json", "checkpoint", "plots"} <= names
-  assert {"training_curves.png", "skills.png"} <= set(os.listdir(os.path.join(trained, "plots")))
+  plots = set(os.listdir(os.path.join(trained, "plots")))
+  assert {"training_curves.png", "skills.png", "paths.png"} <= plots
   config = json.load(open(os.path.join(trained, "config.json")))
   assert config["env"] == "point" and config["objective"] == "diayn"
   assert config["objective_options"] == {"num_skills": 3}

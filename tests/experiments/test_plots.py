@@ -43,3 +43,15 @@ def test_video_frames_carry_their_label_and_keep_the_scene():
   assert (zero[:, :band] != frames[:, :band]).any()  # the band is drawn
   assert (zero[:, :band] != three[:, :band]).any()  # and says which episode this is
   assert (zero[0] == zero[2]).all()  # the same label on every frame of an episode
+
+
+def test_skills_get_clearly_distinct_colours_and_paths_are_drawn(tmp_path):
+  import numpy as np
+  for num in (4, 8, 16, 30):
+    colours = np.asarray(plots.skill_colours(num))[:, :3]
+    gaps = np.abs(colours[:, None] - colours[None]).sum(-1) + np.eye(num) * 9
+    assert gaps.min() > 0.05, num  # no two skills share a colour
+  xy = np.cumsum(np.ones((3, 2, 10, 2)), axis=2) * np.arange(1, 4)[:, None, None, None]
+  path = tmp_path / "paths.png"
+  plots.paths(xy, str(path), body="agent1/root", title="diayn on point")
+  assert path.stat().st_size > 0
