@@ -74,14 +74,15 @@ def _never(value):
 
 def root_goal(owners, where, *, sdcomp: str = "pos", indices=None, target_goal=0.0) -> RawFn:
   axes = _axes(where, indices, sdcomp)
+  bad = ValueError(f"{where}: target_goal={target_goal!r} must be a finite number or have one "
+                   f"finite number per index ({len(axes)})")
   try:
     target = np.asarray(target_goal, np.float32)
   except (TypeError, ValueError):
-    target = np.full((2, 2), np.nan)  # not numbers: reported below
+    raise bad from None
   if (target.ndim > 1 or (target.ndim == 1 and target.shape[0] != len(axes))
       or not np.all(np.isfinite(target))):
-    raise ValueError(f"{where}: target_goal={target_goal!r} must be a finite number or have one "
-                     f"finite number per index ({len(axes)})")
+    raise bad
   x = _quantity(owners, sdcomp, axes)
   return lambda d, a: _never(-jnp.linalg.norm(x(d) - target))
 

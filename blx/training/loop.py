@@ -108,10 +108,11 @@ def train(env: Any, objective: Objective, config: PPOConfig, *, seeds: Sequence[
   steps0 = start_chunk * trainer.iterations_per_chunk * trainer.env_steps_per_iteration
   # Compiled ahead of the first chunk, so that the reported steps/s and ETA leave compilation out
   # ("time" in the metrics is the wall time since the start, compilation included).
-  chunk_fn = chunk_fn.lower(state).compile()
-  eval_fn = eval_fn.lower(state, eval_keys).compile()
-  if extra_eval_fn is not None:
-    extra_eval_fn = extra_eval_fn.lower(state, eval_keys).compile()
+  if start_chunk < trainer.num_chunks:  # (a finished run resumed has nothing to compile)
+    chunk_fn = chunk_fn.lower(state).compile()
+    eval_fn = eval_fn.lower(state, eval_keys).compile()
+    if extra_eval_fn is not None:
+      extra_eval_fn = extra_eval_fn.lower(state, eval_keys).compile()
   compile_seconds = time.time() - t0
 
   def dispatch(state, chunk):
