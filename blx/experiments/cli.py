@@ -240,7 +240,7 @@ def cmd_render(args) -> int:
   import jax.numpy as jnp
   import numpy as np
   from blx import envs, metrics
-  from blx.experiments import render, runs  # the GL backend was chosen in _quiet_imports
+  from blx.experiments import render, runs  # render.render_frames loads the GL backend
   _check_render_args(args)
   run = runs.load_run(args.dir)
   if not 0 <= args.seed_index < len(run.spec.seeds):
@@ -370,12 +370,10 @@ def _parser() -> argparse.ArgumentParser:
   return parser
 
 
-def _quiet_imports(command: str) -> None:
-  """Sets up what must precede the first mujoco import, and keeps mjx's optional-backend notice
-  ("Failed to import warp", printed to stdout) out of the command's output (e.g. ``--json``)."""
-  if command == "render":
-    from blx.experiments import render
-    render.ensure_headless_gl()
+def _quiet_imports() -> None:
+  """Imports mujoco without OpenGL (``blx._mujoco``; ``render`` loads a backend itself) and keeps
+  mjx's optional-backend notice ("Failed to import warp", printed to stdout) out of the command's
+  output (e.g. ``--json``)."""
   with contextlib.redirect_stdout(io.StringIO()):
     import blx._mujoco  # noqa: F401  (mujoco without OpenGL, whatever MUJOCO_GL says)
     import mujoco.mjx  # noqa: F401
@@ -383,7 +381,7 @@ def _quiet_imports(command: str) -> None:
 
 def main(argv=None) -> int:
   args = _parser().parse_args(argv)
-  _quiet_imports(args.command)
+  _quiet_imports()
   if args.command != "envs":
     from blx.experiments import compile_cache
     compile_cache.enable()

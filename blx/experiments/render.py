@@ -36,8 +36,9 @@ def _gl_error(backend: str, cause: BaseException | str) -> GLError:
                  "eval and sweep run without it")
 
 
-def load_gl_backend() -> None:
-  """Loads the OpenGL backend that ``MUJOCO_GL`` names (EGL unless set) into mujoco's renderer.
+def load_gl_backend() -> str:
+  """Loads the OpenGL backend that ``MUJOCO_GL`` names (EGL unless set) into mujoco's renderer and
+  returns its name.
 
   blx imports mujoco with its backend off (``blx._mujoco``), so this is the one place a backend
   loads. Raises :class:`GLError` naming the library to install for that backend, or the valid
@@ -62,6 +63,7 @@ def load_gl_backend() -> None:
     raise _gl_error(backend, f"{type(e).__name__}: {e}") from None
   if context is None or context.__name__ == "_MissingGLContext":
     raise _gl_error(backend, "mujoco found no GL context class for it")
+  return backend
 
 
 def rollout_qpos(run, params, latents, key, *, steps: int):
@@ -94,7 +96,7 @@ def rollout_qpos(run, params, latents, key, *, steps: int):
 def render_frames(mj_model, qpos, *, width: int = 320, height: int = 240):
   """RGB frames ``[T, H, W, 3]`` (uint8) of one trajectory ``qpos [T, nq]``, the camera tracking
   the first body. Raises :class:`GLError` when no OpenGL backend can be loaded."""
-  load_gl_backend()
+  backend = load_gl_backend()
   import numpy as np
 
   from blx._mujoco import mujoco
@@ -113,7 +115,7 @@ def render_frames(mj_model, qpos, *, width: int = 320, height: int = 240):
   try:
     renderer = mujoco.Renderer(mj_model, height, width)
   except Exception as e:  # the backend loaded but opens no context (no device, no display)
-    raise _gl_error(os.environ["MUJOCO_GL"].lower().strip(), f"{type(e).__name__}: {e}") from None
+    raise _gl_error(backend, f"{type(e).__name__}: {e}") from None
   with renderer:
     for q in np.asarray(qpos):
       data.qpos[:] = q
