@@ -43,6 +43,14 @@ def test_train_writes_a_complete_run_directory(trained):
   # 2 evaluations x 2 seeds, with finite rewards.
   assert len(rows) == 4 and {r["seed"] for r in rows} == {"0", "1"}
   assert all(np.isfinite(float(r["eval/episode_reward"])) for r in rows)
+  # Steps/s and the ETA leave compilation out; "time" is the wall time since the start.
+  for r in rows:
+    steps, wall, compile_s = float(r["env_steps"]), float(r["time"]), float(r["compile_seconds"])
+    assert 0 < compile_s < wall
+    np.testing.assert_allclose(float(r["steps_per_second"]), steps / (wall - compile_s), rtol=1e-6)
+    np.testing.assert_allclose(float(r["eta_seconds"]),
+                               (float(r["total_steps"]) - steps) / (steps / (wall - compile_s)),
+                               rtol=1e-6)
 
 
 def test_eval_reports_the_mimax_metrics_as_json(trained, capsys):
