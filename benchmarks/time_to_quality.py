@@ -4,17 +4,20 @@ paper's MI (1.115) and GAIL on Ant the paper's energy distance (0.802), for seve
     python benchmarks/time_to_quality.py [--objectives diayn,gail] [--num-envs 2048,8192,16384,32768]
         [--seeds 4] [--steps 60000000] [--budget-s 600] [--num-evals 40] [--config JSON]
         [--out DIR] [--env ant] [--threshold NAME=VALUE ...] [--quick-eval]
+        [--arm LABEL=JSON ...]
 
 Every arm is one ``training.train`` with the paper's objective settings (those of
 ``paper_tables.py``: 8 DIAYN skills on the xy velocity, obs_scale 5, spectral norm; GAIL to the
 bimodal xy-velocity target, obs_scale 8) and the env's PPO row with ``num_envs`` set and
-``batch_size = num_envs // 2`` (the ant row's ratio) unless ``--config`` says otherwise. After each
+``batch_size = num_envs // 2`` (the ant row's ratio) unless ``--config`` says otherwise. Each
+``--arm LABEL=JSON`` adds one recipe (PPO settings over ``--config``), run at every num_envs, e.g.
+``--arm 'staggered={"staggered_starts": true}'``; without ``--arm`` there is one. After each
 of ``--num-evals`` chunks the paper's evaluator (sampled actions; ``--quick-eval``: 4 episodes,
 every 10th step) scores every seed. The clock starts before the env is built, so env compilation,
 XLA compilation and the evaluations all count, as a user's wall time would. An arm stops when the
 mean over seeds reaches the threshold, at ``--budget-s`` or at ``--steps``.
 
-Writes ``DIR/<objective>_<num_envs>.json`` (every evaluation: wall seconds, env steps, the metric
+Writes ``DIR/<objective>_<num_envs>[_<label>].json`` (every evaluation: wall seconds, env steps, the metric
 per seed), ``DIR/summary.md`` and ``DIR/time_to_quality.png`` (the metric against wall seconds,
 one line per num_envs, the paper's value dashed). DIR defaults to ``$OUT`` or
 ``benchmarks/ttq``. Compare settings only within one call on one device.
@@ -23,6 +26,7 @@ one line per num_envs, the paper's value dashed). DIR defaults to ``$OUT`` or
 from __future__ import annotations
 
 import argparse
+import itertools
 import json
 import os
 import sys
@@ -100,7 +104,9 @@ def plot(results: list[dict], path: str) -> None:
       v = np.array([row["values"] for row in r["rows"]])
       if not len(t):
         continue
-      ax.plot(t, v.mean(1), "o-", ms=3, color=f"C{i}", label=f"{r['num_envs']:,} envs")
+      label = f"{r['num_envs']:,} envs, batch {r['ppo']['batch_size']:,}" + (
+          f", {r['label']}" if r.get("label") else "")
+      ax.plot(t, v.mean(1), "o-", ms=3, color=f"C{i}", label=label)
       if v.shape[1] > 1:
         ax.fill_between(t, v.min(1), v.max(1), color=f"C{i}", alpha=0.15)
     key, value = arms[0]["metric"], arms[0]["threshold"]
@@ -134,6 +140,9 @@ def main():
   parser.add_argument("--threshold", action="append", default=[], metavar="OBJECTIVE=VALUE",
                       help="another quality bar than the paper's (for a quick check only)")
   parser.add_argument("--quick-eval", action="store_true")
+  parser.add_argument("--arm", action="append", default=[], metavar="LABEL=JSON",
+                      help="a recipe run at every num_envs: PPO settings over --config, e.g. "
+                      "'staggered={\"staggered_starts\": true}' (repeatable)")
   parser.add_argument("--out", default=None)
   args = parser.parse_args()
   out = args.out or os.environ.get("OUT") or os.path.join("benchmarks", "ttq")
@@ -145,32 +154,47 @@ def main():
     if name not in quality:
       parser.error(f"--threshold {item!r}: valid objectives are {sorted(quality)}")
     quality[name] = (quality[name][0], float(value), quality[name][2])
+  arms = []
+  for item in args.arm or ["="]:
+    label, _, text = item.partition("=")
+    if label and not label.replace("_", "").replace("-", "").isalnum():
+      parser.error(f"--arm {item!r}: the label must be letters, digits, '-' or '_'")
+    try:
+      settings = json.loads(text) if text else {}
+    except json.JSONDecodeError:
+      settings = None
+    if not isinstance(settings, dict):
+      parser.error(f"--arm {item!r}: the settings after '=' must be a JSON object, e.g. "
+                   "'staggered={\"staggered_starts\": true}'")
+    arms.append((label, {**config, **settings}))
   results = []
   for name in args.objectives.split(","):
     if name not in quality:
       parser.error(f"--objectives: {name!r} is not one of {sorted(quality)}")
     key, threshold, larger = quality[name]
-    for n in [int(x) for x in args.num_envs.split(",")]:
-      spec = arm_spec(args.env, name, n, args.seeds, args.steps, args.num_evals, config)
-      result = {"env": args.env, **run_arm(spec, key, threshold, larger, args.budget_s,
-                                           args.quick_eval)}
+    for n, (label, settings) in itertools.product(
+        [int(x) for x in args.num_envs.split(",")], arms):
+      spec = arm_spec(args.env, name, n, args.seeds, args.steps, args.num_evals, settings)
+      result = {"env": args.env, "label": label,
+                **run_arm(spec, key, threshold, larger, args.budget_s, args.quick_eval)}
       results.append(result)
-      with open(os.path.join(out, f"{name}_{n}.json"), "w") as f:
+      with open(os.path.join(out, f"{name}_{n}{'_' + label if label else ''}.json"), "w") as f:
         json.dump(result, f, indent=1)
       plot(results, os.path.join(out, "time_to_quality.png"))
   import jax
   lines = [f"{args.env}, {args.seeds} seeds vmapped, up to {args.steps:,} steps or "
            f"{args.budget_s:.0f} s per arm; jax {jax.__version__} on "
            f"{jax.devices()[0].device_kind}; PPO overrides {config or 'none'}", "",
-           "| objective | num_envs | batch | time to quality (s) | env steps then | "
+           "| objective | num_envs | batch | recipe | time to quality (s) | env steps then | "
            "per-seed times (s) | best mean | compile (s) |",
-           "| --- | ---: | ---: | ---: | ---: | --- | ---: | ---: |"]
+           "| --- | ---: | ---: | --- | ---: | ---: | --- | ---: | ---: |"]
   for r in results:
     t = f"{r['time_to_quality_s']:.0f}" if r["time_to_quality_s"] else f"not in {r['wall_s']:.0f}"
     steps = f"{r['steps_to_quality']:,.0f}" if r["steps_to_quality"] else "-"
     seeds = ", ".join("-" if s is None else f"{s:.0f}" for s in r["per_seed_time_s"])
     comp = r["rows"][0]["compile_s"] if r["rows"] else None
-    lines.append(f"| {r['objective']} | {r['num_envs']:,} | {r['ppo']['batch_size']:,} | {t} | "
+    recipe = r["label"] or "-"
+    lines.append(f"| {r['objective']} | {r['num_envs']:,} | {r['ppo']['batch_size']:,} | {recipe} | {t} | "
                  f"{steps} | {seeds} | {r['best_mean']:.3f} | "
                  f"{'-' if comp is None else f'{comp:.0f}'} |")
   text = "\n".join(lines)

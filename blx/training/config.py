@@ -29,6 +29,12 @@ class PPOConfig:
   * ``normalize_latent``: the policy's and value's input [obs, z] goes through the running
     normaliser as one vector, as the original (its z is appended to the observation by a wrapper).
     False: only obs is normalised and z is appended raw.
+
+  ``staggered_starts`` (default off, as the original): at the start of training every env's
+  episode clock is set to a random step in [0, episode length), so the envs' episodes end at
+  different times instead of all together. Each env still starts from its reset state; only its
+  first episode is cut short. With many envs and few steps per env (16,384 envs see 1,800 steps
+  each in 30 M steps), synchronised envs fill every batch with one narrow phase of the episode.
   """
 
   num_timesteps: int = 30_000_000
@@ -46,6 +52,7 @@ class PPOConfig:
   normalize_observations: bool = True
   normalize_advantage: bool = False
   normalize_latent: bool = True
+  staggered_starts: bool = False
   max_grad_norm: float | None = None
   policy_hidden: tuple[int, ...] = (32, 32, 32, 32)
   value_hidden: tuple[int, ...] = (256, 256, 256, 256, 256)
@@ -74,7 +81,8 @@ class PPOConfig:
                                            and math.isfinite(self.max_grad_norm))):
       raise ValueError(f"PPOConfig.max_grad_norm must be None or a positive number, got "
                        f"{self.max_grad_norm!r}")
-    for name in ("normalize_observations", "normalize_advantage", "normalize_latent"):
+    for name in ("normalize_observations", "normalize_advantage", "normalize_latent",
+                 "staggered_starts"):
       if not isinstance(getattr(self, name), bool):
         raise ValueError(f"PPOConfig.{name} must be True or False, got {getattr(self, name)!r}")
     if (self.batch_size * self.num_minibatches) % self.num_envs:

@@ -400,11 +400,19 @@ def make_trainer(env: Any, objective: Objective, config: PPOConfig) -> Trainer:
         value=learner.value_net.init(value_key, jnp.zeros((policy_in,))),
         objective=objective.init(obj_key, obs_size))
     env_state = jax.vmap(train_env.reset)(jax.random.split(env_key, c.num_envs))
+    if c.staggered_starts:
+      env_state = stagger(env_state, jax.random.fold_in(env_key, 1))
     z = jax.vmap(objective.sample_latent)(jax.random.split(z_key, c.num_envs))
     return TrainState(params=params, opt_state=learner.optimizer.init(params),
                       normalizer=networks.init_stats(learner.stats_size),
                       env_state=shard(env_state), z=shard(z), key=key,
                       env_steps=jnp.zeros((), jnp.float32), iteration=jnp.zeros((), jnp.int32))
+
+  def stagger(env_state, key):
+    # The episode clock counts steps of the unrepeated env, so offsets are whole policy steps.
+    steps = env_state.info["steps"]
+    offsets = jax.random.randint(key, steps.shape, 0, eval_steps) * repeat
+    return env_state.replace(info={**env_state.info, "steps": offsets.astype(steps.dtype)})
 
   def collect_fn(state: TrainState) -> tuple[TrainState, Rollout]:
     return collect(learner, train_env, state, shard)

@@ -250,3 +250,33 @@ def test_episode_settings_are_the_envs_and_bad_envs_are_named():
     training.make_trainer(envs.auto_reset(envs.episode(base, 8)), task(), SMALL)
   with pytest.raises(ValueError, match=r"episode_length must be an int in 1..2\*\*31 - 1"):
     envs.register_env("bad_episode", {}, episode_length=0)
+
+
+def test_staggered_starts_spread_the_episode_ends_and_keep_each_episode_whole():
+  # 16 envs, 20-step episodes; one collect is 2 unrolls of 5 steps, so two collects cover one
+  # episode length of every env. In step (the original), every env ends at step 20 together;
+  # staggered, each env ends once, at 20 minus its random offset, and then runs a whole episode.
+  env = envs.create("point", episode_length=20)
+  for staggered in (False, True):
+    config = SMALL.replace(staggered_starts=staggered)
+    trainer = training.make_trainer(env, reach_latent(), config)
+    state = jax.jit(trainer.init)(jax.random.PRNGKey(0))
+    offsets = np.asarray(state.env_state.info["steps"])
+    collect = jax.jit(trainer.collect)
+    done = []
+    for _ in range(6):  # 60 steps per env
+      state, data = collect(state)
+      # [U * N, T] -> [N, U * T]: each env's steps in order.
+      per_env = np.asarray(data.done).reshape(config.num_unrolls, config.num_envs, -1)
+      done.append(per_env.transpose(1, 0, 2).reshape(config.num_envs, -1))
+    done = np.concatenate(done, axis=1)
+    first_end = done.argmax(axis=1) + 1  # steps until each env's first episode ended
+    if not staggered:
+      assert (offsets == 0).all()
+      assert (first_end == 20).all()
+    else:
+      assert offsets.min() >= 0 and offsets.max() < 20
+      assert len(set(offsets.tolist())) >= 8, offsets  # 16 draws from 20 values
+      np.testing.assert_array_equal(first_end, 20 - offsets)
+    for row, end in zip(done, first_end):  # after the first end, whole 20-step episodes
+      np.testing.assert_array_equal(np.flatnonzero(row), np.arange(end - 1, 60, 20))
