@@ -130,6 +130,7 @@ def _desc_cases():
     yield _with("components.agent1.reward_fns.g.scale", v, GOAL), "scale"
     yield _with("components.agent1.reward_fns.g.offset", v, GOAL), "offset"
     yield _with("components.agent1.reward_fns.g.done_bonus", v, GOAL), "done_bonus"
+    yield _with("components.agent1.reward_fns.c", dict(reward_type="constant", value=v)), "value"
     yield _with("components.agent1.term_params", {"z_offset": v}), "z_offset"
     yield _with("components.ball.pos", (0.0, v, 0.0)), "pos"
     yield _with("components.ball.quat", (1.0, v, 0.0, 0.0)), "quat"

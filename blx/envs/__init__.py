@@ -1,6 +1,7 @@
 """blx.envs — the Composer: environments as descs, built as MJCF strings, stepped on MJX."""
 
 from blx.envs import descs as _descs  # noqa: F401  (registers the built-in envs)
+from blx.envs.agents import AgentGroups
 from blx.envs.components import ComponentSpec, Termination, list_components, register_component
 from blx.envs.composer import GLOBAL_OPTIONS, Scene, apply_edits, compose
 from blx.envs.env import Env, State
@@ -10,6 +11,7 @@ from blx.envs.wrappers import (action_repeat, auto_reset, episode, episode_steps
                                unwrap)
 
 __all__ = [
+    "AgentGroups",
     "ComponentSpec", "Termination", "list_components", "register_component",
     "GLOBAL_OPTIONS", "Scene", "apply_edits", "compose",
     "Env", "State",

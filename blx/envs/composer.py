@@ -21,6 +21,8 @@ Component keys: ``component``, ``component_params``, ``pos``, ``quat`` (wxyz), `
 Edge keys (edge name = the two component names sorted and joined by ``__``; ``ground`` may be one):
 ``collide_type`` ('full': all collider pairs, the default; 'root': root colliders only; None: no
 contact), ``extra_observers``, ``reward_fns``. ``global_options``: see :data:`GLOBAL_OPTIONS`.
+``agent_groups`` makes the scene multi-agent (which agent claims which reward terms and drives
+which actuators): see ``blx.envs.agents``.
 
 Contacts are explicit ``<pair>`` elements and every geom has contype = conaffinity = 0, so MJX only
 tests the pairs that matter (feet against floor, agent against object). Pair friction is the smaller
@@ -35,6 +37,7 @@ import math
 from typing import Any, Mapping
 
 from blx.envs import components as components_lib
+from blx.envs.agents import check_agent_groups
 from blx.envs.components import GROUND, ComponentSpec
 from blx.envs.mjcf import Element, walk
 from blx.options import check_names, finite_number
@@ -42,7 +45,7 @@ from blx.options import check_names, finite_number
 __all__ = ["Scene", "compose", "apply_edits", "GLOBAL_OPTIONS", "TOP_KEYS", "COMPONENT_KEYS",
            "EDGE_KEYS"]
 
-TOP_KEYS = ("components", "edges", "global_options", "add_ground")
+TOP_KEYS = ("components", "edges", "global_options", "add_ground", "agent_groups")
 COMPONENT_KEYS = ("component", "component_params", "pos", "quat", "reward_fns", "observers",
                   "frozen", "collide", "term_params")
 EDGE_KEYS = ("collide_type", "extra_observers", "reward_fns")
@@ -203,6 +206,9 @@ def compose(desc: Mapping[str, Any]) -> Scene:
       raise _err(f"edges.{key}.extra_observers", "must be a list of observer dicts")
     if GROUND in parts and (edge.get("extra_observers") or edge.get("reward_fns")):
       raise _err(f"edges.{key}", "ground has no root; only collide_type may be set")
+
+  if "agent_groups" in desc:
+    check_agent_groups(desc["agent_groups"])  # names are resolved against the built env
 
   xml = _render(specs, comps, edges, options, add_ground)
   return Scene(xml=xml, desc=desc, specs=specs, options=options)

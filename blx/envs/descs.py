@@ -12,6 +12,8 @@ a converged solve (see ``CHEETAH_OPTIONS``, ``ant_push`` and ``ant_chase``).
 
 from __future__ import annotations
 
+import math
+
 from blx.envs.brax_bodies import ANT_OPTIONS, CHEETAH_OPTIONS, HUMANOID_OPTIONS
 from blx.envs.registry import register_env
 
@@ -55,6 +57,28 @@ def pro_ant_run(num_legs: int = 4):
   return dict(components=dict(agent1=dict(component="pro_ant",
                                           component_params=dict(num_legs=num_legs),
                                           reward_fns=dict(goal=_run_goal()))))
+
+
+def ant_on_ball():
+  """A four-legged pro_ant standing on a free ball of radius 3 (mass 27, Braxlines' singleton
+  density), rewarded for running at (3, 0) m/s (r = 4 - ||v_xy - (3, 0)||); the height rule is
+  lifted by the ball's 6 m (``z_offset``), so the episode ends when the ant falls off.
+
+  The original stepped 0.02 s per control step in 16 substeps (1.25 ms); blx keeps the 0.02 s
+  control step in 4 substeps of 5 ms, the ant's own substep (``ANT_OPTIONS``), with four Newton
+  iterations for the ant-on-ball contacts.
+  """
+  goal = dict(reward_type="root_goal", sdcomp="vel", indices=(0, 1), target_goal=(3.0, 0.0),
+              offset=4.0)
+  return dict(
+      global_options=dict(ANT_OPTIONS, substeps=4, iterations=4),
+      components=dict(
+          agent1=dict(component="pro_ant", component_params=dict(num_legs=4),
+                      pos=(0.0, 0.0, 6.0), term_params=dict(z_offset=6.0),
+                      reward_fns=dict(goal=goal)),
+          ball=dict(component="singleton", component_params=dict(size=3.0)),
+      ),
+  )
 
 
 def humanoid_run():
@@ -107,6 +131,155 @@ def ant_chase():
   )
 
 
+# --------------------------------------------------------------------------------------------------
+# Multi-agent scenes (Braxlines' ``follow``, ``chase`` and ``sumo``): agents ``agent0`` ..
+# ``agent<n-1>`` on a circle of radius ``init_r``, every pair observing its xy root offset.
+
+MAX_DIST = 20.0   # the original's distance at which a chase or follow episode ends
+MIN_DIST = 0.5    # ... and the distance at which a predator catches the prey
+MAX_AGENTS = 10   # agent0 .. agent9 sort as they are numbered
+
+# Solver settings per main body: bodies in contact with each other need converged solves (see
+# ``ant_chase``); the point has no colliders.
+_SCENE_OPTIONS = {"ant": dict(ANT_OPTIONS, iterations=4), "pro_ant": dict(ANT_OPTIONS, iterations=4),
+                  "humanoid": dict(HUMANOID_OPTIONS, iterations=4),
+                  "halfcheetah": dict(CHEETAH_OPTIONS), "point": dict(POINT_OPTIONS)}
+
+
+def _agents(where: str, main_agent: str, other_agent: str, num_agents: int, main_agent_params,
+            other_agent_params, init_r: float) -> dict:
+  if isinstance(num_agents, bool) or not isinstance(num_agents, int) or not (
+      2 <= num_agents <= MAX_AGENTS):
+    raise ValueError(f"{where}: num_agents must be an int in 2..{MAX_AGENTS}, got {num_agents!r}")
+  if not isinstance(init_r, (int, float)) or isinstance(init_r, bool) or not (
+      math.isfinite(init_r) and init_r > 0):
+    raise ValueError(f"{where}: init_r must be a positive number, got {init_r!r}")
+  components, edges = {}, {}
+  for i in range(num_agents):
+    angle = 2.0 * math.pi * i / num_agents
+    comp = dict(component=main_agent if i == 0 else other_agent,
+                pos=(init_r * math.cos(angle), init_r * math.sin(angle), 0.0))
+    params = main_agent_params if i == 0 else other_agent_params
+    if params:
+      comp["component_params"] = dict(params)
+    components[f"agent{i}"] = comp
+    for j in range(i):
+      edges[f"agent{j}__agent{i}"] = dict(
+          extra_observers=[dict(observer_type="root_vec", indices=(0, 1))])
+  desc = dict(components=components, edges=edges,
+              agent_groups={a: dict(reward_names=()) for a in components})
+  if main_agent in _SCENE_OPTIONS:
+    desc["global_options"] = dict(_SCENE_OPTIONS[main_agent])
+  return desc
+
+
+def _claim(desc: dict, agent: str, *terms: str) -> None:
+  desc["agent_groups"][agent]["reward_names"] += terms
+
+
+def follow(leader_vel: float = 3.0, num_agents: int = 2, main_agent: str = "ant",
+           other_agent: str = "ant", main_agent_params: dict | None = None,
+           other_agent_params: dict | None = None, init_r: float = 2.0):
+  """agent0 leads, running at (leader_vel, 0) m/s (r = leader_vel + 2 - ||v_xy - target||); every
+  other agent follows it (r = 21 - ||p - p_leader||; the episode ends beyond 20 m)."""
+  desc = _agents("follow", main_agent, other_agent, num_agents, main_agent_params,
+                 other_agent_params, init_r)
+  desc["components"]["agent0"]["reward_fns"] = dict(goal=dict(
+      reward_type="root_goal", sdcomp="vel", indices=(0, 1), target_goal=(leader_vel, 0.0),
+      offset=leader_vel + 2.0))
+  _claim(desc, "agent0", "agent0/goal")
+  for i in range(1, num_agents):
+    edge = f"agent0__agent{i}"
+    desc["edges"][edge]["reward_fns"] = dict(dist=dict(
+        reward_type="root_dist", max_dist=MAX_DIST, offset=MAX_DIST + 1.0))
+    _claim(desc, f"agent{i}", f"{edge}/dist")
+  return desc
+
+
+def chase(num_agents: int = 2, main_agent: str = "ant", other_agent: str = "ant",
+          main_agent_params: dict | None = None, other_agent_params: dict | None = None,
+          init_r: float = 2.0):
+  """agent0 is the prey, the others are predators. A predator earns 21 - distance and a 20,000
+  bonus for a catch (within 0.5 m, which ends the episode); the prey earns its distance from each
+  predator and 20,000 for getting 20 m away (which ends it too). Every agent also earns its planar
+  speed."""
+  desc = _agents("chase", main_agent, other_agent, num_agents, main_agent_params,
+                 other_agent_params, init_r)
+  for i in range(1, num_agents):
+    edge = f"agent0__agent{i}"
+    desc["edges"][edge]["reward_fns"] = dict(
+        chase=dict(reward_type="root_dist", offset=MAX_DIST + 1.0, min_dist=MIN_DIST,
+                   done_bonus=1000.0 * MAX_DIST),
+        escape=dict(reward_type="root_dist", scale=-1.0, max_dist=MAX_DIST,
+                    done_bonus=1000.0 * MAX_DIST))
+    _claim(desc, f"agent{i}", f"{edge}/chase")
+    _claim(desc, "agent0", f"{edge}/escape")
+  for agent, comp in desc["components"].items():
+    comp["reward_fns"] = dict(run=dict(reward_type="norm", sdcomp="vel", indices=(0, 1),
+                                       scale=-1.0))
+    _claim(desc, agent, f"{agent}/run")
+  return desc
+
+
+def _ring(radius: float, segments: int = 20) -> dict:
+  """The sumo ring: ``segments`` thin capsules on the floor along a circle, frozen and without
+  contacts (drawn only)."""
+  side = 2.0 * radius * math.tan(math.pi / segments)
+  ring = {}
+  for i in range(segments):
+    angle = 2.0 * math.pi * i / segments
+    half = (angle + math.pi / 2) / 2  # the capsule lies along x: turn it to the circle's tangent
+    ring[f"ring{i}"] = dict(
+        component="singleton",
+        component_params=dict(size=(radius / 40.0, side), collider_type="capsule", no_obs=True),
+        pos=(radius * math.cos(angle), radius * math.sin(angle), 0.0),
+        quat=(math.cos(half), 0.0, 0.0, math.sin(half)), frozen=True, collide=False)
+  return ring
+
+
+def sumo(centering_scale: float = 1.0, control_scale: float = 0.1, draw_scale: float = 0.0,
+         knocking_scale: float = 1.0, opp_scale: float = 1.0, ring_size: float = 3.0,
+         win_bonus: float = 1.0, num_agents: int = 2, main_agent: str = "ant",
+         other_agent: str = "ant", main_agent_params: dict | None = None,
+         other_agent_params: dict | None = None, init_r: float = 2.0):
+  """agent0 (the yokozuna) against the others (komusubis) in a ring of radius ``ring_size``.
+
+  For each pair: pushing the opponent out pays ``win_bonus`` and ends the episode (before that,
+  -knocking_scale * exp(-||p_xy(opponent)||)); leaving the ring costs ``win_bonus`` (before that,
+  centering_scale * exp(-||p_xy(self)||)); moving against the opponent's velocity pays
+  opp_scale * max(0, -v_self . v_opp / ||v_opp||). Every agent pays control_scale * ||a|| and
+  draw_scale per step.
+  """
+  if not isinstance(ring_size, (int, float)) or isinstance(ring_size, bool) or not (
+      math.isfinite(ring_size) and ring_size > 0):
+    raise ValueError(f"sumo: ring_size must be a positive number, got {ring_size!r}")
+  desc = _agents("sumo", main_agent, other_agent, num_agents, main_agent_params,
+                 other_agent_params, init_r)
+
+  def out_of_ring(of, scale, bonus):
+    return dict(reward_type="exp_norm", of=of, sdcomp="pos", indices=(0, 1), max_dist=ring_size,
+                done_bonus=bonus, scale=scale)
+
+  for i in range(1, num_agents):
+    edge, komu = f"agent0__agent{i}", f"agent{i}"
+    desc["edges"][edge]["reward_fns"] = dict(
+        komu_win_bonus=out_of_ring("agent0", -knocking_scale, win_bonus),
+        komu_lose_penalty=out_of_ring(komu, centering_scale, -win_bonus),
+        yoko_win_bonus=out_of_ring(komu, -knocking_scale, win_bonus),
+        yoko_lose_penalty=out_of_ring("agent0", centering_scale, -win_bonus),
+        komu_move_to_yoko=dict(reward_type="direction", of=komu, scale=opp_scale),
+        yoko_move_to_komu=dict(reward_type="direction", of="agent0", scale=opp_scale))
+    _claim(desc, komu, *(f"{edge}/komu_{t}" for t in ("win_bonus", "lose_penalty", "move_to_yoko")))
+    _claim(desc, "agent0",
+           *(f"{edge}/yoko_{t}" for t in ("win_bonus", "lose_penalty", "move_to_komu")))
+  for agent, comp in desc["components"].items():
+    comp["reward_fns"] = dict(control_penalty=dict(reward_type="control", scale=control_scale),
+                              draw_penalty=dict(reward_type="constant", value=-draw_scale))
+    _claim(desc, agent, f"{agent}/control_penalty", f"{agent}/draw_penalty")
+  desc["components"].update(_ring(float(ring_size)))
+  return desc
+
+
 register_env("point", point, episode_length=50)
 register_env("point_goal", point_goal, episode_length=50)
 register_env("ant", lambda: _plain("ant", forward=1.0, healthy=1.0, control=0.5,
@@ -124,5 +297,9 @@ register_env("ant_run", ant_run)
 register_env("ant_push", ant_push)
 register_env("ant_chase", ant_chase)
 register_env("pro_ant_run", pro_ant_run)
+register_env("ant_on_ball", ant_on_ball)
 register_env("humanoid_run", humanoid_run)
 register_env("halfcheetah_run", halfcheetah_run)
+register_env("follow", follow)
+register_env("chase", chase)
+register_env("sumo", sumo)

@@ -14,6 +14,7 @@ from blx._mujoco import mujoco  # first: mujoco without its OpenGL backend (only
 from mujoco import mjx  # noqa: I001
 from mujoco.mjx._src import support as mjx_support  # contact_force_dim: forces of condim-3 contacts
 
+from blx.envs.agents import AgentGroups, resolve_agent_groups
 from blx.envs.composer import compose
 from blx.envs.observers import (Handle, ObsPiece, component_observers, contact_observer,
                                 edge_observers, root_quantity)
@@ -29,9 +30,12 @@ class State:
   Attributes:
     data: ``mjx.Data`` of the scene.
     obs: observation ``[observation_size]``.
-    reward: scalar reward of the last step.
+    reward: reward of the last step: a scalar, or ``[num_agents]`` (in ``Env.agent_names`` order)
+      for a multi-agent scene.
     done: 1.0 when the episode ended at the last step (termination or truncation), else 0.0.
-    metrics: ``reward/<term>`` and ``score/<term>`` for every reward term, and ``score``.
+    metrics: ``reward/<term>`` and ``score/<term>`` for every reward term, and ``score`` (a
+      multi-agent scene: ``reward/<agent>/<term>``, ``score/<agent>/<term>``, ``score/<agent>``, and
+      ``score``, the sum over agents).
     info: wrapper bookkeeping (``steps``, the first state for auto-reset).
     truncation: 1.0 when the episode ended at the last step because its time ran out (set by the
       ``episode`` wrapper), not because it terminated; learners bootstrap from the value there.
@@ -76,6 +80,7 @@ class Env:
     obs_layout: ``{name: slice}`` naming every slice of the observation.
     reward_terms: names of the reward terms (``<component>/<name>``, ``<a>__<b>/<name>``).
     dt: seconds of simulated time per env step.
+    agents: the resolved ``agent_groups`` (``blx.envs.agents``), or None for a single-agent scene.
   """
 
   def __init__(self, desc: Mapping[str, Any], *, name: str | None = None):
@@ -120,6 +125,9 @@ class Env:
     self._pieces = _unique(pieces)
     self._terms = tuple(terms)
     self.reward_terms = tuple(t.name for t in terms)
+    groups = self.desc.get("agent_groups")
+    self.agents: AgentGroups | None = None if groups is None else resolve_agent_groups(
+        groups, self.reward_terms, {n: h.actions for n, h in self._handles.items()})
     layout, start = {}, 0
     for piece in self._pieces:
       layout[piece.name] = slice(start, start + piece.size)
@@ -286,6 +294,38 @@ class Env:
     return None
 
   @property
+  def agent_names(self) -> tuple[str, ...]:
+    """The agents of a multi-agent scene, sorted (the order of reward vectors); () otherwise."""
+    return self.agents.names if self.agents else ()
+
+  @property
+  def num_agents(self) -> int:
+    """How many agents own rewards and actions: 1 for a single-agent scene."""
+    return len(self.agents.names) if self.agents else 1
+
+  @property
+  def agent_action_indices(self) -> dict[str, np.ndarray]:
+    """``{agent: indices of its actions in the full action vector}`` (multi-agent scenes)."""
+    return dict(self.agents.action_indices) if self.agents else {}
+
+  @property
+  def tracked_bodies(self) -> list[int]:
+    """Root body ids a camera should keep in view: every agent's components in a multi-agent
+    scene, else the main component."""
+    if not self.agents:
+      return [self._handles[self.main_component].body]
+    driven = [c for c, h in self._handles.items()
+              if any(np.isin(h.actions, idx).any() for idx in self.agents.action_indices.values())]
+    return [self._handles[c].body for c in driven]
+
+  def _metric_keys(self) -> list[str]:
+    if not self.agents:
+      return [f"{kind}/{t}" for t in self.reward_terms for kind in ("reward", "score")]
+    names = self.agents.names
+    return ([f"{kind}/{names[i]}/{t}" for t, i in zip(self.reward_terms, self.agents.term_agent)
+             for kind in ("reward", "score")] + [f"score/{a}" for a in names])
+
+  @property
   def named_indices(self) -> dict[str, tuple[int, ...]]:
     """All named index sets, e.g. ``{"vel_xy": (13, 14), "agent1/vel_xy": (13, 14), ...}``."""
     return dict(self._named)
@@ -353,13 +393,22 @@ class Env:
     return h * jnp.concatenate([total[:, :3] / mass, dw], -1)
 
   def _reward(self, data: mjx.Data, action: jax.Array):
-    metrics, reward, score, done = {}, jnp.zeros(()), jnp.zeros(()), jnp.zeros((), bool)
-    for term in self._terms:
+    shape = (len(self.agents.names),) if self.agents else ()
+    metrics, reward, score, done = {}, jnp.zeros(shape), jnp.zeros(shape), jnp.zeros((), bool)
+    for i, term in enumerate(self._terms):
       r, s, d = term.fn(data, action)
-      metrics[f"reward/{term.name}"] = r
-      metrics[f"score/{term.name}"] = s
-      reward, score, done = reward + r, score + s, done | d
-    metrics["score"] = score
+      who = f"{self.agents.names[self.agents.term_agent[i]]}/" if self.agents else ""
+      metrics[f"reward/{who}{term.name}"] = r
+      metrics[f"score/{who}{term.name}"] = s
+      if self.agents:
+        reward = reward.at[self.agents.term_agent[i]].add(r)
+        score = score.at[self.agents.term_agent[i]].add(s)
+      else:
+        reward, score = reward + r, score + s
+      done = done | d
+    if self.agents:
+      metrics.update({f"score/{a}": score[i] for i, a in enumerate(self.agents.names)})
+    metrics["score"] = score.sum()
     for handle, rule, offset in self._terminations:
       z = root_quantity(handle, data, "pos")[2]
       done = done | (z < rule.min_z + offset) | (z > rule.max_z + offset)
@@ -380,11 +429,12 @@ class Env:
           jax.random.uniform(pos_key, (len(self._noise_qpos),), minval=-scale, maxval=scale))
       qvel = scale * jax.random.uniform(vel_key, (self.mj_model.nv,), minval=-1.0, maxval=1.0)
     data = mjx.forward(self.mjx_model, self._data0.replace(qpos=qpos, qvel=qvel))
-    metrics = {f"{kind}/{t}": jnp.zeros(()) for t in self.reward_terms for kind in ("reward", "score")}
+    metrics = {key: jnp.zeros(()) for key in self._metric_keys()}
     metrics["score"] = jnp.zeros(())
     contact = jnp.zeros((len(self._contact_bodies), 6))
     obs = self._observe(data, contact)
-    return State(data=data, obs=obs, reward=jnp.zeros(()), done=jnp.zeros(()), metrics=metrics,
+    reward = jnp.zeros((len(self.agents.names),) if self.agents else ())
+    return State(data=data, obs=obs, reward=reward, done=jnp.zeros(()), metrics=metrics,
                  info={}, contact=contact, truncation=jnp.zeros(()), pre_reset_obs=obs)
 
   def _ctrl(self, action: jax.Array, qpos: jax.Array) -> jax.Array:
@@ -417,8 +467,9 @@ class Env:
                          pre_reset_obs=obs)
 
   def __repr__(self) -> str:
+    agents = f", agents {list(self.agents.names)}" if self.agents else ""
     return (f"Env({self.name or 'custom'}: obs {self.observation_size}, action {self.action_size}, "
-            f"dt {self.dt:g}s)")
+            f"dt {self.dt:g}s{agents})")
 
 
 class TorqueCut(NamedTuple):

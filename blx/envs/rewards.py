@@ -23,7 +23,19 @@ exp_norm       1 or 2  exp(-||x[indices]||), done if outside [min_dist, max_dist
 forward        1       root velocity along world ``axis`` (default x)
 control        1 or 2  -||a||, the owners' actions
 constant       any     value
+direction      2       max(0, v0 . (sign * v1 / ||v1||)) on the xy velocities (``indices``) of the
+                       mover (0) and the other (1); ``sign`` defaults to -1
 =============  ======  ===========================================================================
+
+On an edge, ``of=<component>`` makes a one-owner term (``root_goal``, ``norm``, ``exp_norm``,
+``forward``, ``control``) about that one of the two components, so an edge can hold, say, the
+term "agent0 is pushed out of the ring" that agent1 claims; for ``direction`` it names the mover
+(default: the edge's first component).
+
+``direction`` is Braxlines' sumo term. The original gates it on both roots moving towards each
+other, but its gate tests the sign of each dot product for truth, so only an exactly zero product
+closes it; blx keeps that behaviour (and returns 0 where ||v1|| = 0, where the original divides by
+zero).
 """
 
 from __future__ import annotations
@@ -133,7 +145,23 @@ def control(owners, where) -> RawFn:
 
 
 def constant(owners, where, *, value: float = 1.0) -> RawFn:
+  value = finite_number(f"{where}.value", value)
   return lambda d, a: _never(jnp.asarray(value, jnp.float32))
+
+
+def direction(owners, where, *, indices=(0, 1), sign: float = -1.0) -> RawFn:
+  axes = _axes(where, indices, "vel")
+  sign = float(np.sign(finite_number(f"{where}.sign", sign)))
+  mover, other = owners
+
+  def fn(d, a):
+    v0, v1 = (root_quantity(o, d, "vel")[axes] for o in (mover, other))
+    p0, p1 = (root_quantity(o, d, "pos")[axes] for o in (mover, other))
+    gate = (jnp.dot(p1 - p0, v0) != 0) & (jnp.dot(p0 - p1, v1) != 0)
+    speed = jnp.linalg.norm(v1)
+    unit = v1 / jnp.where(speed > 0, speed, 1.0)
+    return _never(jnp.where(gate, jnp.maximum(jnp.dot(v0, sign * unit), 0.0), 0.0))
+  return fn
 
 
 # reward_type -> (builder, allowed owner counts)
@@ -146,6 +174,7 @@ REWARD_TYPES: dict[str, tuple[Callable[..., RawFn], tuple[int, ...]]] = {
     "forward": (forward, (1,)),
     "control": (control, (1, 2)),
     "constant": (constant, (1, 2)),
+    "direction": (direction, (2,)),
 }
 
 
@@ -167,6 +196,15 @@ def build_reward_term(name: str, spec: Any, owners: Sequence[Handle], where: str
     raise ValueError(f"{where}: unknown reward_type {reward_type!r}; valid reward types are "
                      f"{sorted(REWARD_TYPES)}")
   builder, counts = REWARD_TYPES[reward_type]
+  if "of" in kwargs:
+    of, names = kwargs.pop("of"), [o.name for o in owners]
+    if len(owners) != 2 or of not in names:
+      raise ValueError(f"{where}.of: {of!r} is not one of the edge's components; 'of' is for edge "
+                       f"terms and names one of their two components"
+                       + (f", here {names}" if len(owners) == 2 else ""))
+    chosen = owners[names.index(of)]
+    # One-owner terms become about ``of`` alone; two-owner terms (direction) take it first.
+    owners = [chosen] if 1 in counts else [chosen] + [o for o in owners if o is not chosen]
   if len(owners) not in counts:
     kind = "an edge" if len(owners) == 2 else "a component"
     raise ValueError(f"{where}: reward_type {reward_type!r} cannot be used on {kind}; it takes "
@@ -177,7 +215,7 @@ def build_reward_term(name: str, spec: Any, owners: Sequence[Handle], where: str
   excluded = bool(kwargs.pop("exclude_from_score", False))
   check_names(f"{where} (reward_type {reward_type!r})", kwargs,
               keyword_names(builder, keyword_only=True), "key",
-              extra_valid=sorted(WRAPPER_KEYS) + ["reward_type"])
+              extra_valid=sorted(WRAPPER_KEYS) + ["reward_type", "of"])
   raw = builder(owners, where, **kwargs)
   sign = float(np.sign(scale))
 

@@ -99,6 +99,13 @@ def cmd_envs(args) -> int:
   for name, sl in env.obs_layout.items():
     print(f"  [{sl.start:3d}:{sl.stop:3d}]  {name}")
   print("reward terms: " + (", ".join(env.reward_terms) or "(none)"))
+  base = envs.unwrap(env)
+  if base.agents:
+    print("agents (MAPPO: one policy each; reward is a vector in this order):")
+    for i, agent in enumerate(base.agent_names):
+      terms = [t for t, k in zip(base.reward_terms, base.agents.term_agent) if k == i]
+      print(f"  {agent}: actions {base.agent_action_indices[agent].tolist()}, "
+            f"rewards {', '.join(terms) or '(none)'}")
   print("named indices (for --obs-indices):")
   for name, idx in env.named_indices.items():
     if "/" not in name:
@@ -273,7 +280,8 @@ def cmd_render(args) -> int:
   qpos = np.asarray(render.rollout_qpos(run, params, latents, key, steps=steps))
   frames = np.concatenate([
       render.label_frames(render.render_frames(run.env.mj_model, q, width=args.width,
-                                               height=args.height), label)
+                                               height=args.height,
+                                               track=envs.unwrap(run.env).tracked_bodies), label)
       for q, label in zip(qpos, labels)])
   out = args.out or os.path.join(args.dir, "video.mp4")
   fps = 1.0 / (run.env.dt * repeat)

@@ -18,6 +18,7 @@ CURVE_PATTERNS = (r"^eval/episode_reward$", r"^eval/episode_score$", r"^eval/mi$
                   r"^eval/entropy$", r"^eval/lgr$", r"^eval/energy_distance$", r"^eval/mode_share/\d+$",
                   r"^loss/disc$",
                   r"^disc/accuracy$", r"^loss/policy$", r"^policy/entropy$")
+PER_AGENT = ("eval/episode_reward", "eval/episode_score")  # split by agent in multi-agent runs
 
 
 def _pyplot():
@@ -98,11 +99,17 @@ def training_curves(history: list[dict], path: str, *, titles: dict[str, str] | 
   fig, axes = plt.subplots(rows, cols, figsize=(4.2 * cols, 3.0 * rows), squeeze=False)
   steps = np.array([row["env_steps"] for row in history])
   for ax, key in zip(axes.flat, keys):
-    values = np.array([np.atleast_1d(row[key]) for row in history], np.float64)  # [E, seeds]
-    ax.plot(steps, values.mean(1), color="C0")
-    if values.shape[1] > 1:
-      ax.fill_between(steps, values.min(1), values.max(1), color="C0", alpha=0.2)
-    ax.set_title((titles or {}).get(key, key), fontsize=9)
+    # A multi-agent run's totals are drawn per agent (eval/episode_reward/<agent>), one colour each.
+    agents = [k for k in history[0] if key in PER_AGENT and re.match(rf"^{re.escape(key)}/[^/]+$", k)]
+    for i, line in enumerate(agents or [key]):
+      values = np.array([np.atleast_1d(row[line]) for row in history], np.float64)  # [E, seeds]
+      label = line.rsplit("/", 1)[-1] if agents else None
+      ax.plot(steps, values.mean(1), color=f"C{i}", marker="o", ms=2.5, label=label)
+      if values.shape[1] > 1:
+        ax.fill_between(steps, values.min(1), values.max(1), color=f"C{i}", alpha=0.2)
+    if agents:
+      ax.legend(fontsize=7, title="agent", title_fontsize=7)
+    ax.set_title((titles or {}).get(key, key) + (" per agent" if agents else ""), fontsize=9)
     ax.set_xlabel("env steps", fontsize=8)
     ax.xaxis.set_major_formatter(_steps_formatter())
     ax.set_ylabel(curve_ylabel(key), fontsize=8)

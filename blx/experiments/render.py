@@ -93,9 +93,12 @@ def rollout_qpos(run, params, latents, key, *, steps: int):
   return go(params, latents, key)
 
 
-def render_frames(mj_model, qpos, *, width: int = 320, height: int = 240):
+def render_frames(mj_model, qpos, *, width: int = 320, height: int = 240,
+                  track: list[int] | None = None):
   """RGB frames ``[T, H, W, 3]`` (uint8) of one trajectory ``qpos [T, nq]``, the camera tracking
-  the first body. Raises :class:`GLError` when no OpenGL backend can be loaded."""
+  the first body, or, with ``track`` (body ids, e.g. every agent's root: ``Env.tracked_bodies``),
+  looking at their centre from far enough to keep them all in view. Raises :class:`GLError` when
+  no OpenGL backend can be loaded."""
   backend = load_gl_backend()
   import numpy as np
 
@@ -105,7 +108,12 @@ def render_frames(mj_model, qpos, *, width: int = 320, height: int = 240):
   camera = mujoco.MjvCamera()
   camera.type = mujoco.mjtCamera.mjCAMERA_TRACKING
   camera.trackbodyid = 1 if mj_model.nbody > 1 else 0
-  camera.distance = max(3.0, 2.5 * float(mj_model.stat.extent))
+  camera.distance = base = max(3.0, 2.5 * float(mj_model.stat.extent))
+  if track is not None and len(track) > 1:
+    camera.type = mujoco.mjtCamera.mjCAMERA_FREE
+    track = np.asarray(track, np.int64)
+  else:
+    track = None
   camera.elevation = -35.0
   camera.azimuth = 90.0
   frames = []
@@ -120,6 +128,11 @@ def render_frames(mj_model, qpos, *, width: int = 320, height: int = 240):
     for q in np.asarray(qpos):
       data.qpos[:] = q
       mujoco.mj_forward(mj_model, data)
+      if track is not None:
+        points = data.xpos[track]
+        centre = points.mean(0)
+        camera.lookat[:] = centre
+        camera.distance = max(base, 2.0 * float(np.linalg.norm(points - centre, axis=1).max()) + 2.0)
       renderer.update_scene(data, camera)
       frames.append(renderer.render().copy())
   return np.stack(frames)

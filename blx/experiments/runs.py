@@ -225,8 +225,9 @@ def evaluate_run(run: Run, *, key_seed: int = 0) -> dict[str, list[float]]:
   evaluator = evaluator_for(run.env, run.objective)
 
   def one(params, key):
-    out = {k: v for k, v in trainer.evaluate(params, key).items()
-           if k in ("eval/episode_reward", "eval/episode_score", "eval/episode_length")}
+    kept = ("eval/episode_reward", "eval/episode_score", "eval/episode_length")
+    out = {k: v for k, v in trainer.evaluate(params, key).items()  # with per-agent totals
+           if k in kept or (k.count("/") == 2 and k.rsplit("/", 1)[0] in kept)}
     if evaluator is not None:
       out.update(evaluator(trainer.policy, params, key))
     return out

@@ -179,6 +179,21 @@ class Learner(NamedTuple):
   config: PPOConfig
   stats_size: int         # width of the running normaliser: obs, plus z when it is normalised too
   action_repeat: int = 1  # the env's: env steps per policy step
+  agent_names: tuple[str, ...] = ()  # MAPPO: the env's agents (rewards, values, log-probs per agent)
+  action_groups: Any = None          # MAPPO: [action_size, num_agents], 1 where an agent acts
+
+  @property
+  def num_agents(self) -> int:
+    return len(self.agent_names) or 1
+
+  def log_prob(self, logits: jax.Array, raw_action: jax.Array) -> jax.Array:
+    """log pi(u): ``[...]``, or per agent ``[..., num_agents]`` for MAPPO."""
+    return networks.log_prob_raw(logits, raw_action, self.action_groups)
+
+  def value(self, params: Any, x: jax.Array) -> jax.Array:
+    """V(x): ``[...]``, or per agent ``[..., num_agents]`` for MAPPO."""
+    values = self.value_net.apply(params, x)
+    return values if self.agent_names else values[..., 0]
 
   @property
   def latent_in_stats(self) -> bool:
@@ -193,17 +208,40 @@ class Learner(NamedTuple):
 
 
 def make_learner(obs_size: int, action_size: int, objective: Objective,
-                 config: PPOConfig, action_repeat: int = 1) -> Learner:
+                 config: PPOConfig, action_repeat: int = 1,
+                 agents: envs_lib.AgentGroups | None = None) -> Learner:
   """The networks (policy ``[*policy_hidden, 2 A]``, value ``[*value_hidden, 1]``) and the
-  optimiser (global-norm clipping, then Adam) for an env of these sizes."""
+  optimiser (global-norm clipping, then Adam) for an env of these sizes.
+
+  With ``agents`` (a multi-agent env's ``env.agents``) this is MAPPO, Braxlines' multi-agent PPO:
+  each agent has its own policy and value network (``networks.AgentMLPs``) on the shared,
+  commonly normalised observation; its policy acts on its own actuators; GAE and the clipped
+  surrogate use its own reward column and its own log-probability, with the episode ends shared.
+  One Adam over all agents' parameters updates each agent's networks by its own loss alone (Adam
+  is per parameter; the losses of different agents share no parameters), as separate optimisers
+  would, unless ``max_grad_norm`` clips the global norm of all of them together.
+  """
   c = config
   optimizer = optax.chain(
       optax.clip_by_global_norm(c.max_grad_norm) if c.max_grad_norm else optax.identity(),
       optax.adam(c.learning_rate))
-  learner = Learner(policy_net=networks.MLP((*c.policy_hidden, 2 * action_size)),
-                    value_net=networks.MLP((*c.value_hidden, 1)), optimizer=optimizer,
+  policy_net = networks.MLP((*c.policy_hidden, 2 * action_size))
+  value_net = networks.MLP((*c.value_hidden, 1))
+  names, groups = (), None
+  if agents is not None:
+    names = tuple(agents.names)
+    acts = [np.asarray(agents.action_indices[a], np.int64) for a in names]
+    policy_net = networks.AgentMLPs(
+        c.policy_hidden, names, tuple(tuple(np.concatenate([i, action_size + i]).tolist())
+                                      for i in acts), 2 * action_size)
+    value_net = networks.AgentMLPs(c.value_hidden, names, tuple((k,) for k in range(len(names))),
+                                   len(names))
+    groups = np.zeros((action_size, len(names)), np.float32)
+    for k, i in enumerate(acts):
+      groups[i, k] = 1.0
+  learner = Learner(policy_net=policy_net, value_net=value_net, optimizer=optimizer,
                     objective=objective, config=c, stats_size=obs_size,
-                    action_repeat=action_repeat)
+                    action_repeat=action_repeat, agent_names=names, action_groups=groups)
   if learner.latent_in_stats:
     learner = learner._replace(stats_size=obs_size + objective.latent_size)
   return learner
@@ -224,7 +262,7 @@ def env_step(learner: Learner, env: Any, params: Params, stats: networks.Running
   with jax.named_scope("objective"):
     reward = jax.vmap(objective.reward, (None, 0))(
         jax.lax.stop_gradient(params.objective), transition)
-  step = Rollout(env_state.obs, raw, action, networks.log_prob_raw(logits, raw), next_obs, reward,
+  step = Rollout(env_state.obs, raw, action, learner.log_prob(logits, raw), next_obs, reward,
                  next_state.reward, next_state.done, next_state.truncation, z)
   return next_state, step
 
@@ -267,17 +305,24 @@ def ppo_loss(learner: Learner, params: Params, batch: Rollout, stats: networks.R
     logits = learner.policy_net.apply(params.policy, x)
   with jax.named_scope("value"):
     x_last = learner.policy_input(stats, batch.next_obs[:, -1:], batch.z[:, -1:])
-    values = learner.value_net.apply(params.value, jnp.concatenate([x, x_last], axis=1))[..., 0]
+    values = learner.value(params.value, jnp.concatenate([x, x_last], axis=1))
   value = values[:, :-1]
-  advantage, target = losses.sequence_advantages(
-      batch.reward * c.reward_scaling, jax.lax.stop_gradient(values), batch.done,
-      batch.truncation, discount=c.discounting, lam=c.gae_lambda)
-  if c.normalize_advantage:
-    advantage = (advantage - advantage.mean()) / (advantage.std() + 1e-8)
-  log_prob = networks.log_prob_raw(logits, batch.raw_action)
-  policy_loss = losses.clipped_surrogate(log_prob, batch.log_prob, advantage,
-                                         epsilon=c.clipping_epsilon)
-  value_loss = 0.25 * jnp.mean((value - target) ** 2)
+
+  def advantages(reward, values):
+    return losses.sequence_advantages(reward, values, batch.done, batch.truncation,
+                                      discount=c.discounting, lam=c.gae_lambda)
+  if learner.agent_names:  # one GAE per agent's reward column; episode ends are shared
+    advantages = jax.vmap(advantages, in_axes=-1, out_axes=-1)
+  advantage, target = advantages(batch.reward * c.reward_scaling, jax.lax.stop_gradient(values))
+  if c.normalize_advantage:  # per agent
+    advantage = ((advantage - advantage.mean((0, 1), keepdims=True))
+                 / (advantage.std((0, 1), keepdims=True) + 1e-8))
+  log_prob = learner.log_prob(logits, batch.raw_action)
+  # Every agent has the same number of samples, so num_agents x the mean over [B, T, agents] is
+  # the sum over agents of each agent's PPO loss (one agent: the loss itself).
+  policy_loss = learner.num_agents * losses.clipped_surrogate(
+      log_prob, batch.log_prob, advantage, epsilon=c.clipping_epsilon)
+  value_loss = learner.num_agents * 0.25 * jnp.mean((value - target) ** 2)
   entropy = jnp.mean(networks.entropy(logits, entropy_key))
   entropy_loss = -c.entropy_cost * entropy
   with jax.named_scope("objective"):
@@ -327,6 +372,8 @@ def update(learner: Learner, state: TrainState, data: Rollout) -> tuple[TrainSta
       epoch, (state.params, state.opt_state, normalizer),
       jax.random.split(sgd_key, c.num_updates_per_batch))
   metrics = jax.tree.map(jnp.mean, metrics)
+  metrics.update({f"train/reward/{a}": data.reward[..., i].mean()
+                  for i, a in enumerate(learner.agent_names)})
   metrics.update({
       "train/reward": data.reward.mean(),
       "train/env_reward": data.env_reward.mean(),
@@ -359,14 +406,22 @@ def evaluate(learner: Learner, env: Any, steps: int, params: PolicyParams, key: 
     transition = Transition(state.obs, action, next_state.obs, next_state.reward, z)
     reward = jax.vmap(objective.reward, (None, 0))(params.objective, transition)
     step = {"eval/episode_reward": reward, "eval/episode_env_reward": next_state.reward,
-            "eval/episode_length": jnp.ones_like(reward) * learner.action_repeat,
+            "eval/episode_length": jnp.ones_like(next_state.done) * learner.action_repeat,
             **{f"eval/episode_{k}": v for k, v in next_state.metrics.items()}}
     return step, next_state.done
 
   _, (per_step, done) = envs_lib.rollout(env, act, env_state, steps, jax.random.fold_in(key, 2),
                                          record)
-  alive = envs_lib.alive_before(done)  # a step counts until its episode has ended
-  return jax.tree.map(lambda x: jnp.mean(jnp.sum(alive * x, axis=0)), per_step)
+  alive = envs_lib.alive_before(done)  # [T, N]: a step counts until its episode has ended
+
+  def total(x):  # the mean episode total: a scalar, or one per agent
+    return jnp.mean(jnp.sum(alive.reshape(alive.shape + (1,) * (x.ndim - 2)) * x, axis=0), axis=0)
+  out = jax.tree.map(total, per_step)
+  for key_ in [k for k, v in out.items() if v.ndim]:  # MAPPO: per-agent totals and their sum
+    per_agent = out.pop(key_)
+    out.update({f"{key_}/{a}": per_agent[i] for i, a in enumerate(learner.agent_names)})
+    out[key_] = per_agent.sum()
+  return out
 
 
 def make_trainer(env: Any, objective: Objective, config: PPOConfig) -> Trainer:
@@ -384,7 +439,10 @@ def make_trainer(env: Any, objective: Objective, config: PPOConfig) -> Trainer:
   eval_env = env
 
   obs_size = base.observation_size
-  learner = make_learner(obs_size, base.action_size, objective, c, repeat)
+  agents = getattr(base, "agents", None)
+  learner = make_learner(obs_size, base.action_size, objective, c, repeat, agents)
+  if agents is not None:
+    _check_per_agent_reward(objective, obs_size, base.action_size, agents.names)
   policy_in = obs_size + (objective.latent_size if objective.conditions_policy else 0)
   shard = _data_sharding(c.num_envs)
 
@@ -448,6 +506,28 @@ def make_trainer(env: Any, objective: Objective, config: PPOConfig) -> Trainer:
                  evaluate=evaluate_fn, train=train, policy=policy, num_chunks=num_chunks,
                  iterations_per_chunk=iterations_per_chunk, config=c,
                  env_steps_per_iteration=env_steps_per_iteration)
+
+
+def _check_per_agent_reward(objective: Objective, obs_size: int, action_size: int,
+                            agents: tuple[str, ...]) -> None:
+  """MAPPO needs one reward per agent from the objective, following the env's per-agent rewards
+  (``task`` passes them through). An objective that gives every agent the same reward whatever
+  the env's (e.g. DIAYN without ``env_reward_multiplier``) is refused."""
+  params = objective.init(jax.random.PRNGKey(0), obs_size)
+
+  def reward(env_reward):
+    t = Transition(jnp.zeros(obs_size), jnp.zeros(action_size), jnp.zeros(obs_size), env_reward,
+                   jnp.zeros(objective.latent_size))
+    return jnp.asarray(objective.reward(params, t))
+  base = reward(jnp.zeros(len(agents)))
+  moved = reward(jnp.arange(1.0, len(agents) + 1.0)) - base
+  per_agent = base.shape == (len(agents),)
+  if not per_agent or bool(jnp.allclose(moved, moved.reshape(-1)[0])):
+    gives = "every agent the same reward" if per_agent else f"a reward of shape {base.shape}"
+    raise ValueError(f"make_trainer: the env is multi-agent (agents {list(agents)}), so MAPPO needs "
+                     f"one reward per agent that follows the env's, but objective "
+                     f"{objective.name!r} gives {gives}; train multi-agent envs with the task "
+                     "objective (a reward-free objective for one of the agents is not built yet)")
 
 
 def policy_params(state: TrainState) -> PolicyParams:

@@ -314,3 +314,32 @@ def test_train_help_lists_envs_objectives_and_config_defaults(capsys):
   assert "default 8, as the API" in out  # one DIAYN skill count for the CLI, the API and sweeps
   spec = cli._spec_from_args(cli._parser().parse_args(["train"]))
   assert "num_skills" not in spec.objective_options
+
+
+def test_a_multi_agent_scene_trains_evaluates_and_renders_every_agent(tmp_path, capsys):
+  out = str(tmp_path / "chase")
+  args = ["train", "--env", "chase", "--objective", "task", "--env-param", "main_agent='point'",
+          "--env-param", "other_agent='point'", "--out", out, *TINY]
+  assert cli.main(args) == 0
+  rows = list(csv.DictReader(open(os.path.join(out, "metrics.csv"))))
+  for agent in ("agent0", "agent1"):
+    for key in ("train/reward", "eval/episode_reward", "eval/episode_score"):
+      assert np.isfinite(float(rows[-1][f"{key}/{agent}"])), (key, agent)
+  # The total is the sum of the agents'.
+  np.testing.assert_allclose(float(rows[-1]["eval/episode_reward"]),
+                             sum(float(rows[-1][f"eval/episode_reward/agent{i}"]) for i in (0, 1)),
+                             rtol=1e-5)
+  capsys.readouterr()
+  assert cli.main(["eval", out, "--json"]) == 0
+  per_seed = json.loads(capsys.readouterr().out)["per_seed"]
+  assert {"eval/episode_reward/agent0", "eval/episode_score/agent1"} <= set(per_seed)
+  assert cli.main(["envs", "chase"]) == 0
+  assert ("agent1: actions [8, 9, 10, 11, 12, 13, 14, 15], rewards agent1/run, "
+          "agent0__agent1/chase") in capsys.readouterr().out  # the default scene: two ants
+  video = str(tmp_path / "chase.mp4")
+  proc = subprocess.run([sys.executable, "-m", "blx.experiments.cli", "render", out, "--width",
+                         "96", "--height", "64", "--out", video], capture_output=True, text=True,
+                        env={**os.environ, "PYTHONPATH": ROOT}, timeout=600)
+  if "rendering needs an OpenGL backend" in proc.stderr:
+    pytest.skip("no headless OpenGL on this machine (install libegl1 or libosmesa6)")
+  assert proc.returncode == 0, proc.stderr[-2000:]

@@ -1,0 +1,138 @@
+"""MAPPO: PPO with one policy, value network and loss per agent, in the same trainer."""
+
+from __future__ import annotations
+
+import functools
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+from blx import envs, objectives, training
+from blx.objectives import task
+from blx.training import networks, ppo
+from tests.training.tiny import SMALL, reach_latent
+
+EDGE = "evader__pursuer"
+
+
+def pursuit_desc():
+  """An evader (2 m/s top speed) at the origin and a pursuer (3 m/s) 3 m away. The pursuer earns
+  -distance and catches within 0.5 m, which ends the episode; the evader earns +distance."""
+  point = lambda gear, pos: dict(component="point", component_params=dict(gear=gear), pos=pos)
+  return dict(
+      components=dict(evader=point(4.0, (0.0, 0.0, 0.0)), pursuer=point(6.0, (3.0, 0.0, 0.0))),
+      edges={EDGE: dict(extra_observers=[dict(observer_type="root_vec", indices=(0, 1))],
+                        reward_fns=dict(catch=dict(reward_type="root_dist", min_dist=0.5),
+                                        flee=dict(reward_type="root_dist", scale=-1.0)))},
+      global_options=dict(timestep=0.05, substeps=2),
+      agent_groups=dict(evader=dict(reward_names=(f"{EDGE}/flee",)),
+                        pursuer=dict(reward_names=(f"{EDGE}/catch",))))
+
+
+@functools.lru_cache(maxsize=None)
+def pursuit():
+  return envs.create(desc=pursuit_desc(), episode_length=50)
+
+
+def episodes(env, trainer, params, key, *, random=None, scripted_pursuer=False, n=64):
+  """Catch rate and mean episode length (time to catch; 50 = never caught) of ``n`` episodes with
+  sampled actions; ``random`` replaces that agent's actions by uniform noise, ``scripted_pursuer``
+  sends the pursuer straight at the evader at full speed."""
+  base = envs.unwrap(env)
+  idx, vec = base.agent_action_indices, base.obs_layout[f"{EDGE}/root_vec_pos[0,1]"]
+  state = jax.vmap(env.reset)(jax.random.split(key, n))
+
+  def act(obs, k):
+    policy_key, noise_key = jax.random.split(k)
+    action = trainer.policy(params, obs, key=policy_key, deterministic=False)
+    if random is not None:
+      noise = jax.random.uniform(noise_key, (n, len(idx[random])), minval=-1.0, maxval=1.0)
+      action = action.at[:, idx[random]].set(noise)
+    if scripted_pursuer:  # evader - pursuer, normalised
+      towards = obs[:, vec] / jnp.linalg.norm(obs[:, vec], axis=-1, keepdims=True)
+      action = action.at[:, idx["pursuer"]].set(towards)
+    return action
+
+  record = lambda s, a, nxt: (jnp.linalg.norm(nxt.obs[:, vec], axis=-1), nxt.done)
+  _, (dist, done) = envs.rollout(env, act, state, 50, key, record)
+  alive = envs.alive_before(done)
+  caught = ((dist < 0.5) & (alive > 0)).any(0)
+  return float(caught.mean()), float(alive.sum(0).mean())
+
+
+def test_mappo_learns_to_pursue_and_to_evade():
+  # 120 k steps, about 30 s on 2 CPU cores. Baselines, measured in the same scene: a pursuer acting
+  # at random never catches the trained evader (catch rate 0), and the pursuer that runs straight
+  # at the evader catches an evader acting at random after 13 steps. Seeds 0-2 gave catch rates
+  # 0.91, 1.0 and 0.39 for the trained pair, and 38, 27 and 41 steps for the trained evader against
+  # the scripted pursuer.
+  env = pursuit()
+  config = training.ppo_defaults("point", num_timesteps=120_000, num_evals=2, reward_scaling=0.1,
+                                 entropy_cost=0.01)
+  result = training.train(env, task(), config, seeds=(0,), progress=False)
+  trainer = training.make_trainer(env, task(), config)
+  params = jax.tree.map(lambda x: x[0], result.params)
+  key = jax.random.PRNGKey(1)
+  trained, _ = episodes(env, trainer, params, key)
+  random_pursuer, _ = episodes(env, trainer, params, key, random="pursuer")
+  assert trained >= random_pursuer + 0.3, (trained, random_pursuer)
+  _, evader_time = episodes(env, trainer, params, key, scripted_pursuer=True)
+  _, random_time = episodes(env, trainer, params, key, scripted_pursuer=True, random="evader")
+  assert evader_time >= random_time + 10, (evader_time, random_time)
+  last = result.metrics[-1]
+  assert {"train/reward/evader", "train/reward/pursuer", "eval/episode_reward/evader",
+          "eval/episode_reward/pursuer", "eval/episode_score/pursuer"} <= set(last)
+  # The two agents' rewards are +-distance, so their evaluation totals cancel.
+  np.testing.assert_allclose(last["eval/episode_reward/evader"],
+                             -np.asarray(last["eval/episode_reward/pursuer"]), rtol=1e-4)
+
+
+def test_mappo_vmaps_over_seeds_like_separate_runs():
+  train = training.make_train(pursuit(), task(), SMALL)
+  keys = jax.random.split(jax.random.PRNGKey(0), 2)
+  batched_state, batched = jax.jit(jax.vmap(train))(keys)
+  for i in range(2):
+    state, metrics = jax.jit(train)(keys[i])
+    for a, b in zip(jax.tree.leaves(state.params), jax.tree.leaves(batched_state.params)):
+      np.testing.assert_allclose(a, b[i], rtol=1e-4, atol=1e-5)
+    np.testing.assert_allclose(metrics["eval/episode_reward/pursuer"],
+                               batched["eval/episode_reward/pursuer"][i], rtol=1e-4, atol=1e-4)
+
+
+def test_each_agent_has_its_own_networks_and_its_loss_moves_only_them():
+  env = envs.unwrap(pursuit())
+  learner = ppo.make_learner(env.observation_size, env.action_size, task(), SMALL,
+                             agents=env.agents)
+  x = jnp.ones((3, env.observation_size))
+  params = learner.policy_net.init(jax.random.PRNGKey(0), x)
+  assert set(params["params"]) == {"evader", "pursuer"}
+  logits = learner.policy_net.apply(params, x)
+  raw = jax.random.normal(jax.random.PRNGKey(1), (3, env.action_size))
+  per_agent = learner.log_prob(logits, raw)
+  assert per_agent.shape == (3, 2)
+  np.testing.assert_allclose(per_agent.sum(-1), networks.log_prob_raw(logits, raw), rtol=1e-5)
+  # The pursuer's log-probability depends on the pursuer's parameters only.
+  grads = jax.grad(lambda p: learner.log_prob(learner.policy_net.apply(p, x), raw)[:, 1].sum())(
+      params)
+  assert all(float(jnp.abs(g).max()) == 0.0 for g in jax.tree.leaves(grads["params"]["evader"]))
+  assert any(float(jnp.abs(g).max()) > 0.0 for g in jax.tree.leaves(grads["params"]["pursuer"]))
+  # Its actions come from its own network: the pursuer's means sit at its action indices.
+  sub = {"params": params["params"]["pursuer"]}
+  own = networks.MLP((*SMALL.policy_hidden, 4)).apply(sub, x)
+  idx = env.agent_action_indices["pursuer"]
+  np.testing.assert_allclose(logits[:, idx], own[:, :2], rtol=1e-6)
+  values = learner.value(learner.value_net.init(jax.random.PRNGKey(2), x), x)
+  assert values.shape == (3, 2)
+
+
+def test_an_objective_without_per_agent_rewards_is_refused_by_name():
+  env = pursuit()
+  diayn = objectives.diayn(num_skills=4, obs_indices="evader/pos_xy", env=env)
+  with pytest.raises(ValueError, match=r"the env is multi-agent \(agents \['evader', 'pursuer'\]\), "
+                                       r"so MAPPO needs one reward per agent that follows the env's, "
+                                       r"but objective 'diayn' gives every agent the same reward"):
+    training.make_trainer(env, diayn, SMALL)
+  with pytest.raises(ValueError, match=r"objective 'tiny' gives a reward of shape \(\)"):
+    training.make_trainer(env, reach_latent(), SMALL)
