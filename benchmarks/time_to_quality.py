@@ -8,8 +8,10 @@ paper's MI (1.115) and GAIL on Ant the paper's energy distance (0.802), for seve
 
 Every arm is one ``training.train`` with the paper's objective settings (those of
 ``paper_tables.py``: 8 DIAYN skills on the xy velocity, obs_scale 5, spectral norm; GAIL to the
-bimodal xy-velocity target, obs_scale 8) and the env's PPO row with ``num_envs`` set and
-``batch_size = num_envs // 2`` (the ant row's ratio) unless ``--config`` says otherwise. Each
+bimodal xy-velocity target, obs_scale 8) and the env's PPO row with ``num_envs`` set, keeping the
+row's batch (1,024 x 32 minibatches for the ant), so that every num_envs takes the paper's SGD
+steps per env step (session 9: with ``batch_size = num_envs // 2`` at 16,384 envs DIAYN barely
+learned), unless ``--config`` says otherwise. Each
 ``--arm LABEL=JSON`` adds one recipe (PPO settings over ``--config``), run at every num_envs, e.g.
 ``--arm 'staggered={"staggered_starts": true}'``; without ``--arm`` there is one. After each
 of ``--num-evals`` chunks the paper's evaluator (sampled actions; ``--quick-eval``: 4 episodes,
@@ -52,8 +54,7 @@ def arm_spec(env: str, objective: str, num_envs: int, seeds: int, steps: int, nu
              config: dict) -> runs.RunSpec:
   family = next(spec for spec in paper_tables.specs(seeds).values()
                 if objective in spec["objective"])
-  ppo = {"num_envs": num_envs, "batch_size": max(1, num_envs // 2), "num_timesteps": steps,
-         "num_evals": num_evals, **config}
+  ppo = {"num_envs": num_envs, "num_timesteps": steps, "num_evals": num_evals, **config}
   return runs.RunSpec(env=env, objective=objective, objective_options=dict(family["options"]),
                       ppo=ppo, seeds=tuple(range(seeds)))
 
@@ -83,7 +84,9 @@ def run_arm(spec: runs.RunSpec, key: str, threshold: float, larger: bool, budget
   first = next((r for r in rows if better(r["mean"])), None)
   per_seed = [next((r["wall_s"] for r in rows if better(r["values"][i])), None)
               for i in range(len(spec.seeds))]
-  return {"objective": spec.objective, "num_envs": spec.ppo["num_envs"], "ppo": spec.ppo,
+  # The settings given, and the batch they came to (the row's unless given).
+  ppo = {**spec.ppo, "batch_size": config.batch_size, "num_minibatches": config.num_minibatches}
+  return {"objective": spec.objective, "num_envs": spec.ppo["num_envs"], "ppo": ppo,
           "metric": key, "threshold": threshold, "rows": rows,
           "time_to_quality_s": first and first["wall_s"],
           "steps_to_quality": first and first["env_steps"], "per_seed_time_s": per_seed,
