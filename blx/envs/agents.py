@@ -11,8 +11,8 @@ Keys of an agent's entry (all optional):
 
 * ``reward_names``: reward terms by their full name, ``<component>/<term>`` or ``<a>__<b>/<term>``
   (``env.reward_terms`` lists them).
-* ``reward_agents``: components whose own terms (``<component>/<term>``) the agent claims; edge terms
-  are claimed by name.
+* ``reward_agents``: components whose own terms (``<component>/<term>``) the agent claims; edge
+  terms are claimed by name.
 * ``action_agents``: components whose actuators the agent drives; default: the component with the
   agent's name.
 

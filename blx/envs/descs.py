@@ -141,7 +141,8 @@ MAX_AGENTS = 10   # agent0 .. agent9 sort as they are numbered
 
 # Solver settings per main body: bodies in contact with each other need converged solves (see
 # ``ant_chase``); the point has no colliders.
-_SCENE_OPTIONS = {"ant": dict(ANT_OPTIONS, iterations=4), "pro_ant": dict(ANT_OPTIONS, iterations=4),
+_SCENE_OPTIONS = {"ant": dict(ANT_OPTIONS, iterations=4),
+                  "pro_ant": dict(ANT_OPTIONS, iterations=4),
                   "humanoid": dict(HUMANOID_OPTIONS, iterations=4),
                   "halfcheetah": dict(CHEETAH_OPTIONS), "point": dict(POINT_OPTIONS)}
 

@@ -100,7 +100,8 @@ def training_curves(history: list[dict], path: str, *, titles: dict[str, str] | 
   steps = np.array([row["env_steps"] for row in history])
   for ax, key in zip(axes.flat, keys):
     # A multi-agent run's totals are drawn per agent (eval/episode_reward/<agent>), one colour each.
-    agents = [k for k in history[0] if key in PER_AGENT and re.match(rf"^{re.escape(key)}/[^/]+$", k)]
+    agents = [k for k in history[0]
+              if key in PER_AGENT and re.match(rf"^{re.escape(key)}/[^/]+$", k)]
     for i, line in enumerate(agents or [key]):
       values = np.array([np.atleast_1d(row[line]) for row in history], np.float64)  # [E, seeds]
       label = line.rsplit("/", 1)[-1] if agents else None

@@ -132,7 +132,8 @@ def render_frames(mj_model, qpos, *, width: int = 320, height: int = 240,
         points = data.xpos[track]
         centre = points.mean(0)
         camera.lookat[:] = centre
-        camera.distance = max(base, 2.0 * float(np.linalg.norm(points - centre, axis=1).max()) + 2.0)
+        spread = float(np.linalg.norm(points - centre, axis=1).max())
+        camera.distance = max(base, 2.0 * spread + 2.0)
       renderer.update_scene(data, camera)
       frames.append(renderer.render().copy())
   return np.stack(frames)

@@ -179,7 +179,7 @@ class Learner(NamedTuple):
   config: PPOConfig
   stats_size: int         # width of the running normaliser: obs, plus z when it is normalised too
   action_repeat: int = 1  # the env's: env steps per policy step
-  agent_names: tuple[str, ...] = ()  # MAPPO: the env's agents (rewards, values, log-probs per agent)
+  agent_names: tuple[str, ...] = ()  # MAPPO: the env's agents (reward, value, log-prob per agent)
   action_groups: Any = None          # MAPPO: [action_size, num_agents], 1 where an agent acts
 
   @property

@@ -132,8 +132,8 @@ def test_bad_agent_groups_are_named(groups, message):
 def test_of_must_name_one_of_the_edges_components():
   desc = two_points()
   desc["edges"]["a__b"]["reward_fns"]["b_from_origin"]["of"] = "c"
-  with pytest.raises(ValueError, match=r"b_from_origin.of: 'c' is not one of the edge's components; "
-                                       r".*here \['a', 'b'\]"):
+  with pytest.raises(ValueError, match=r"b_from_origin.of: 'c' is not one of the edge's "
+                                       r"components; .*here \['a', 'b'\]"):
     envs.create(desc=desc)
   desc = two_points()
   desc["components"]["a"]["reward_fns"]["goal"]["of"] = "a"

@@ -130,9 +130,10 @@ def test_each_agent_has_its_own_networks_and_its_loss_moves_only_them():
 def test_an_objective_without_per_agent_rewards_is_refused_by_name():
   env = pursuit()
   diayn = objectives.diayn(num_skills=4, obs_indices="evader/pos_xy", env=env)
-  with pytest.raises(ValueError, match=r"the env is multi-agent \(agents \['evader', 'pursuer'\]\), "
-                                       r"so MAPPO needs one reward per agent that follows the env's, "
-                                       r"but objective 'diayn' gives every agent the same reward"):
+  with pytest.raises(ValueError, match=r"the env is multi-agent \(agents \['evader', "
+                                       r"'pursuer'\]\), so MAPPO needs one reward per agent that "
+                                       r"follows the env's, but objective 'diayn' gives every "
+                                       r"agent the same reward"):
     training.make_trainer(env, diayn, SMALL)
   with pytest.raises(ValueError, match=r"objective 'tiny' gives a reward of shape \(\)"):
     training.make_trainer(env, reach_latent(), SMALL)
