@@ -6,7 +6,7 @@ Building blocks (plain functions of arrays, written for one example) live in ``m
 discriminator and a reward transform) and ``mle`` for D-min.
 """
 
-from blx.objectives.base import Objective, Transition, task
+from blx.objectives.base import Objective, Transition, for_agent, task
 from blx.objectives.dmin import (airl_reward, discriminator_loss, fairl_reward, gail2_reward,
                                  gail_reward, gradient_penalty, mle_reward)
 from blx.objectives.mimax import (categorical_log_q, categorical_offset, clip_logits,
@@ -23,7 +23,7 @@ from blx.objectives.spectral import DiscriminatorMLP, SNDense, spectral_normaliz
 from blx.objectives.targets import Target, multimode_gaussian, target_from_samples
 
 __all__ = [
-    "Objective", "Transition", "task",
+    "Objective", "Transition", "task", "for_agent",
     "gcrl", "fixed_gcrl", "cdiayn", "diayn", "diayn_full", "gail", "gail2", "airl", "fairl", "mle",
     "make", "list_objectives", "options_of", "resolve_indices",
     "mimax_objective", "adversarial_objective",

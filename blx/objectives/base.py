@@ -15,7 +15,7 @@ import jax.numpy as jnp
 
 from blx.objectives.specs import Spec, TaskSpec
 
-__all__ = ["Transition", "Objective", "task"]
+__all__ = ["Transition", "Objective", "task", "for_agent"]
 
 Params = Any
 
@@ -80,3 +80,29 @@ def task() -> Objective:
       name="task",
       spec=TaskSpec(),
   )
+
+
+def for_agent(objective: Objective, agent: int, num_agents: int) -> Objective:
+  """``objective`` for agent ``agent`` of a multi-agent env, the others keeping their env rewards.
+
+  The reward becomes a vector ``[num_agents]``: the env's per-agent rewards, with entry ``agent``
+  replaced by ``objective``'s reward computed on that agent's env reward (so an objective's
+  ``env_reward_multiplier`` mixes in the agent's own task reward). Everything else (latent,
+  discriminator loss, spec) is ``objective``'s: the latent conditions every agent's policy, since
+  all agents see the same observation, but only ``agent`` is paid for it. MAPPO trains it like
+  ``task``. (The command line does not offer it yet; use the API.)
+  """
+  if isinstance(num_agents, bool) or not isinstance(num_agents, int) or num_agents < 2:
+    raise ValueError(f"for_agent: num_agents must be an int >= 2, got {num_agents!r}")
+  if isinstance(agent, bool) or not isinstance(agent, int) or not 0 <= agent < num_agents:
+    raise ValueError(f"for_agent: agent must be an index in 0..{num_agents - 1}, got {agent!r}")
+
+  def reward(params, t: Transition) -> jax.Array:
+    env_reward = jnp.asarray(t.env_reward)
+    if env_reward.shape != (num_agents,):
+      raise ValueError(f"for_agent: the env's reward has shape {env_reward.shape}, not "
+                       f"({num_agents},): is the env multi-agent with {num_agents} agents?")
+    own = objective.reward(params, t._replace(env_reward=env_reward[agent]))
+    return env_reward.at[agent].set(own)
+
+  return objective._replace(reward=reward, name=f"{objective.name}@agent{agent}")

@@ -526,8 +526,9 @@ def _check_per_agent_reward(objective: Objective, obs_size: int, action_size: in
     gives = "every agent the same reward" if per_agent else f"a reward of shape {base.shape}"
     raise ValueError(f"make_trainer: the env is multi-agent (agents {list(agents)}), so MAPPO needs "
                      f"one reward per agent that follows the env's, but objective "
-                     f"{objective.name!r} gives {gives}; train multi-agent envs with the task "
-                     "objective (a reward-free objective for one of the agents is not built yet)")
+                     f"{objective.name!r} gives {gives}; use the task objective, or give a "
+                     "reward-free objective to one agent with "
+                     "blx.objectives.for_agent(objective, agent=i, num_agents=n)")
 
 
 def policy_params(state: TrainState) -> PolicyParams:
