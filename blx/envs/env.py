@@ -309,14 +309,17 @@ class Env:
     return dict(self.agents.action_indices) if self.agents else {}
 
   @property
+  def reward_shape(self) -> tuple[int, ...]:
+    """``()``, or ``(num_agents,)`` for a multi-agent scene."""
+    return (len(self.agents.names),) if self.agents else ()
+
+  @property
   def tracked_bodies(self) -> list[int]:
     """Root body ids a camera should keep in view: every agent's components in a multi-agent
-    scene, else the main component."""
+    scene (the actuated ones: each is driven by exactly one agent), else the main component."""
     if not self.agents:
       return [self._handles[self.main_component].body]
-    driven = [c for c, h in self._handles.items()
-              if any(np.isin(h.actions, idx).any() for idx in self.agents.action_indices.values())]
-    return [self._handles[c].body for c in driven]
+    return [h.body for h in self._handles.values() if len(h.actions)]
 
   def _metric_keys(self) -> list[str]:
     if not self.agents:
@@ -393,7 +396,7 @@ class Env:
     return h * jnp.concatenate([total[:, :3] / mass, dw], -1)
 
   def _reward(self, data: mjx.Data, action: jax.Array):
-    shape = (len(self.agents.names),) if self.agents else ()
+    shape = self.reward_shape
     metrics, reward, score, done = {}, jnp.zeros(shape), jnp.zeros(shape), jnp.zeros((), bool)
     for i, term in enumerate(self._terms):
       r, s, d = term.fn(data, action)
@@ -433,9 +436,9 @@ class Env:
     metrics["score"] = jnp.zeros(())
     contact = jnp.zeros((len(self._contact_bodies), 6))
     obs = self._observe(data, contact)
-    reward = jnp.zeros((len(self.agents.names),) if self.agents else ())
-    return State(data=data, obs=obs, reward=reward, done=jnp.zeros(()), metrics=metrics,
-                 info={}, contact=contact, truncation=jnp.zeros(()), pre_reset_obs=obs)
+    return State(data=data, obs=obs, reward=jnp.zeros(self.reward_shape), done=jnp.zeros(()),
+                 metrics=metrics, info={}, contact=contact, truncation=jnp.zeros(()),
+                 pre_reset_obs=obs)
 
   def _ctrl(self, action: jax.Array, qpos: jax.Array) -> jax.Array:
     """The motor controls for ``action``, with Brax's cut past the joint limits applied."""
