@@ -1,24 +1,28 @@
-"""The paper's Ant rows (Tables 3 and 4) through the sweep machinery of ``blx sweep``.
+"""The paper's Tables 3 and 4 (Ant, HalfCheetah, Humanoid) through the sweep machinery of ``blx sweep``.
 
-    python benchmarks/paper_tables.py [--seeds 10] [--only gcrl|mimax|dmin] [--objective diayn]
-                                      [--collect] [--out sweeps/paper] [--env-edits JSON]
-                                      [--config JSON] [--options JSON] [--steps N] [--eval-metrics]
+    python benchmarks/paper_tables.py [--env ant|halfcheetah|humanoid] [--seeds 10]
+                                      [--only gcrl|mimax|dmin] [--objective diayn] [--collect]
+                                      [--out sweeps/paper_ENV] [--env-edits JSON] [--config JSON]
+                                      [--options JSON] [--steps N] [--eval-metrics]
     python benchmarks/paper_tables.py --compare DIR   # every DIR/**/eval.json against the paper
 
 ``--objective`` trains only that algorithm's point (one process per GPU:
 ``CUDA_VISIBLE_DEVICES=i python benchmarks/paper_tables.py --objective NAME &`` for each), and
-``--collect`` then gathers every evaluated point into the tables without training. ``--env-edits``,
-``--config`` (PPO settings over the ant row), ``--options`` (objective options over the row's, e.g.
+``--collect`` then gathers every evaluated point into the tables without training. ``--env-edits``
+(dotted paths into the env's desc, e.g. ``'{"global_options.iterations": 4}'``), ``--config`` (PPO
+settings over the env's row), ``--options`` (objective options over the row's, e.g.
 ``'{"target_seed": 3}'``) and ``--steps`` are for ablations: a row trained with any of them is not
 the paper's protocol. ``--eval-metrics`` also logs the paper's metrics at every evaluation during
 training (e.g. D-min's mode shares), at the cost of a quick evaluation each time.
 
-MI-max: gcrl, diayn, cdiayn, diayn_full on the ant's xy velocity, obs_scale 5, spectral norm on;
-D-min: gail, gail2, airl, mle to the bimodal xy-velocity target (modes (+-4, 0), std 0.8), obs_scale
-8, spectral norm off. PPO: the ant row with twice its steps (60 M), seeds vmapped in one program per
-algorithm. Writes summary.md / .csv / .tex per sweep and prints them beside the paper's values, then a
-verdict per row and metric: Welch's t-test against the paper's mean and std over its 10 seeds, and
-whether blx reaches the paper's mean - 1 std (in the direction where larger is better).
+MI-max: gcrl, diayn, cdiayn, diayn_full on the env's "vel" indices (Ant and Humanoid: xy velocity;
+HalfCheetah: x velocity), obs_scale 5, spectral norm on; D-min: gail, gail2, airl, mle to the
+bimodal target on the same indices (Ant, Humanoid: modes (+-4, 0), std 0.8; HalfCheetah: +-2.67,
+std 0.53), obs_scale 8, spectral norm off. PPO: the env's row with twice its steps (Ant 60 M,
+HalfCheetah 200 M, Humanoid 100 M per seed), seeds vmapped in one program per algorithm. Writes
+summary.md / .csv / .tex per sweep and prints them beside the paper's values, then a verdict per
+row and metric: Welch's t-test against the paper's mean and std over its 10 seeds, and whether blx
+reaches the paper's mean - 1 std (in the direction where larger is better).
 """
 
 from __future__ import annotations
@@ -30,21 +34,55 @@ import math
 import os
 
 from blx.experiments import sweep
+from blx.training.config import ppo_defaults
 
-# The paper's Ant rows (Tables 3 and 4; 10 seeds): metric -> (mean, std). -LGR and -energy distance
-# as printed; larger is better for every one.
+# The paper's rows (Tables 3 and 4; 10 seeds): env -> algorithm -> metric -> (mean, std). -LGR and
+# -energy distance as printed; larger is better for every one.
 PAPER = {
-    "diayn": {"eval/mi": (1.115, 0.268), "eval/entropy": (5.558, 0.286), "-eval/lgr": (-2.260, 0.539)},
-    "diayn_full": {"eval/mi": (0.034, 0.006), "eval/entropy": (5.044, 0.039),
-                   "-eval/lgr": (-3.010, 0.010)},
-    "gcrl": {"eval/mi": (1.218, 0.192), "eval/entropy": (6.066, 0.051), "-eval/lgr": (-2.074, 0.232)},
-    "cdiayn": {"eval/mi": (0.750, 0.185), "eval/entropy": (5.253, 0.270),
-               "-eval/lgr": (-2.885, 0.291)},
-    "airl": {"-eval/energy_distance": (-2.588, 1.194)},
-    "gail": {"-eval/energy_distance": (-0.802, 0.460)},
-    "gail2": {"-eval/energy_distance": (-2.898, 0.946)},
-    "mle": {"-eval/energy_distance": (-1.829, 0.573)},
+    "ant": {
+        "diayn": {"eval/mi": (1.115, 0.268), "eval/entropy": (5.558, 0.286),
+                  "-eval/lgr": (-2.260, 0.539)},
+        "diayn_full": {"eval/mi": (0.034, 0.006), "eval/entropy": (5.044, 0.039),
+                       "-eval/lgr": (-3.010, 0.010)},
+        "gcrl": {"eval/mi": (1.218, 0.192), "eval/entropy": (6.066, 0.051),
+                 "-eval/lgr": (-2.074, 0.232)},
+        "cdiayn": {"eval/mi": (0.750, 0.185), "eval/entropy": (5.253, 0.270),
+                   "-eval/lgr": (-2.885, 0.291)},
+        "airl": {"-eval/energy_distance": (-2.588, 1.194)},
+        "gail": {"-eval/energy_distance": (-0.802, 0.460)},
+        "gail2": {"-eval/energy_distance": (-2.898, 0.946)},
+        "mle": {"-eval/energy_distance": (-1.829, 0.573)},
+    },
+    "halfcheetah": {
+        "diayn": {"eval/mi": (1.815, 0.201), "eval/entropy": (5.164, 0.455),
+                  "-eval/lgr": (-0.492, 0.154)},
+        "diayn_full": {"eval/mi": (0.490, 0.156), "eval/entropy": (5.519, 0.178),
+                       "-eval/lgr": (-1.397, 0.287)},
+        "gcrl": {"eval/mi": (1.626, 0.157), "eval/entropy": (5.307, 0.173),
+                 "-eval/lgr": (-0.293, 0.356)},
+        "cdiayn": {"eval/mi": (1.551, 0.098), "eval/entropy": (5.104, 0.353),
+                   "-eval/lgr": (-0.741, 0.365)},
+        "airl": {"-eval/energy_distance": (-1.448, 0.843)},
+        "gail": {"-eval/energy_distance": (-0.516, 0.640)},
+        "gail2": {"-eval/energy_distance": (-2.488, 0.355)},
+        "mle": {"-eval/energy_distance": (-2.614, 0.415)},
+    },
+    "humanoid": {
+        "diayn": {"eval/mi": (0.927, 0.128), "eval/entropy": (6.074, 0.088),
+                  "-eval/lgr": (-2.313, 0.266)},
+        "diayn_full": {"eval/mi": (0.071, 0.007), "eval/entropy": (5.676, 0.081),
+                       "-eval/lgr": (-3.051, 0.028)},
+        "gcrl": {"eval/mi": (0.769, 0.146), "eval/entropy": (6.058, 0.063),
+                 "-eval/lgr": (-2.755, 0.115)},
+        "cdiayn": {"eval/mi": (0.297, 0.147), "eval/entropy": (5.677, 0.060),
+                   "-eval/lgr": (-2.738, 0.112)},
+        "airl": {"-eval/energy_distance": (-1.122, 0.210)},
+        "gail": {"-eval/energy_distance": (-1.790, 0.413)},
+        "gail2": {"-eval/energy_distance": (-1.471, 0.528)},
+        "mle": {"-eval/energy_distance": (-2.037, 0.973)},
+    },
 }
+ENVS = tuple(PAPER)
 PAPER_SEEDS = 10
 
 
@@ -65,9 +103,9 @@ def welch(values: list[float], mean: float, std: float, n: int = PAPER_SEEDS):
 def verdicts(eval_json: dict) -> list[str]:
   """Markdown rows: metric, blx mean ± std (n), paper, Welch t and p, and whether blx reaches the
   paper's mean - std."""
-  name = eval_json["objective"]
+  name, env = eval_json["objective"], eval_json.get("env", "ant")
   lines = []
-  for key, (mean, std) in PAPER.get(name, {}).items():
+  for key, (mean, std) in PAPER.get(env, {}).get(name, {}).items():
     sign = -1.0 if key.startswith("-") else 1.0
     values = [sign * v for v in eval_json["per_seed"].get(key.lstrip("-"), [])]
     if not values:
@@ -76,56 +114,67 @@ def verdicts(eval_json: dict) -> list[str]:
     sd = math.sqrt(sum((v - mu) ** 2 for v in values) / len(values))
     t, dof, p = welch(values, mean, std)
     ok = "yes" if mu >= mean - std else "**no**"
-    lines.append(f"| {name} | {key} | {mu:.3f} ± {sd:.3f} ({len(values)}) | {mean:.3f} ± {std:.3f} "
+    lines.append(f"| {env} | {name} | {key} | {mu:.3f} ± {sd:.3f} ({len(values)}) | {mean:.3f} ± {std:.3f} "
                  f"| {t:+.2f} | {p:.3f} | {ok} |")
   return lines
 
 
 def compare(directory: str) -> str:
   """The verdict table for every ``eval.json`` under ``directory``."""
-  rows = ["| algorithm | metric | blx (seeds) | paper (10) | Welch t | p | >= paper mean - std |",
-          "| --- | --- | ---: | ---: | ---: | ---: | --- |"]
+  rows = ["| env | algorithm | metric | blx (seeds) | paper (10) | Welch t | p "
+          "| >= paper mean - std |",
+          "| --- | --- | --- | ---: | ---: | ---: | ---: | --- |"]
   for path in sorted(glob.glob(os.path.join(directory, "**", "*eval.json"), recursive=True)):
     with open(path) as f:
       rows += verdicts(json.load(f))
   return "\n".join(rows)
 
 
+def paper_steps(env: str) -> int:
+  """The paper's env steps per seed: the env's PPO row (``experiments/defaults.py``) times 2."""
+  return 2 * ppo_defaults(env).num_timesteps
+
+
 def specs(seeds: int, edits: dict | None = None, config: dict | None = None,
-          steps: int = 60_000_000, options: dict | None = None) -> dict:
-  common = dict(env="ant", seeds=list(range(seeds)), steps=steps,
+          steps: int | None = None, options: dict | None = None, env: str = "ant") -> dict:
+  """The sweep specs of ``env``'s rows: ``{"gcrl" | "mimax" | "dmin": spec}``."""
+  if env not in PAPER:
+    raise ValueError(f"env {env!r}: the paper's tables have {list(ENVS)}")
+  common = dict(env=env, seeds=list(range(seeds)), steps=steps or paper_steps(env),
                 env_params=dict(edits=edits) if edits else {}, config=dict(config or {}))
   over = dict(options or {})
   return {
       # gcrl learns no discriminator, so spectral norm is not one of its options.
-      "gcrl": dict(name="paper_gcrl_ant", objective=["gcrl"],
+      "gcrl": dict(name=f"paper_gcrl_{env}", objective=["gcrl"],
                    options={"obs_indices": "vel", "obs_scale": 5.0, **over}, **common),
-      "mimax": dict(name="paper_mimax_ant", objective=["diayn", "cdiayn", "diayn_full"],
+      "mimax": dict(name=f"paper_mimax_{env}", objective=["diayn", "cdiayn", "diayn_full"],
                     options={"obs_indices": "vel", "obs_scale": 5.0, "spectral_norm": True, **over},
                     **common),
-      "dmin": dict(name="paper_dmin_ant", objective=["gail", "gail2", "airl", "mle"],
+      "dmin": dict(name=f"paper_dmin_{env}", objective=["gail", "gail2", "airl", "mle"],
                    options={"obs_indices": "vel", "obs_scale": 8.0, **over}, **common),
   }
 
 
 def main():
   parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+  parser.add_argument("--env", choices=ENVS, default="ant")
   parser.add_argument("--seeds", type=int, default=10)
   parser.add_argument("--only", choices=["gcrl", "mimax", "dmin"], default=None)
   parser.add_argument("--objective", default=None, help="train only this algorithm's point")
   parser.add_argument("--collect", action="store_true", help="only gather evaluated points")
-  parser.add_argument("--out", default="sweeps/paper")
+  parser.add_argument("--out", default=None, help="default sweeps/paper_ENV")
   parser.add_argument("--env-edits", default=None, metavar="JSON",
-                      help="edits of the ant's desc for an ablation, e.g. "
-                           "'{\"global_options\": {\"timestep\": 0.005, \"substeps\": 10}}'")
+                      help="edits of the env's desc for an ablation (dotted paths), e.g. "
+                           "'{\"global_options.iterations\": 4}'")
   parser.add_argument("--config", default=None, metavar="JSON",
-                      help="PPO settings over the ant row for an ablation, e.g. "
+                      help="PPO settings over the env's row for an ablation, e.g. "
                            "'{\"normalize_advantage\": true}'")
   parser.add_argument("--options", default=None, metavar="JSON",
                       help="objective options over the row's for an ablation, e.g. "
                            "'{\"target_seed\": 3}'")
-  parser.add_argument("--steps", type=int, default=60_000_000,
-                      help="env steps per seed (the paper's: 60 M; fewer only for a diagnosis)")
+  parser.add_argument("--steps", type=int, default=None,
+                      help="env steps per seed (default the paper's: the env's PPO row x 2; fewer "
+                           "only for a diagnosis)")
   parser.add_argument("--eval-metrics", action="store_true",
                       help="log the paper's metrics at every evaluation during training")
   parser.add_argument("--compare", default=None, metavar="DIR",
@@ -142,10 +191,11 @@ def main():
     select = lambda name, run_spec: False
   elif args.objective:
     select = lambda name, run_spec: run_spec.objective == args.objective
+  args.out = args.out or f"sweeps/paper_{args.env}"
   edits = json.loads(args.env_edits) if args.env_edits else None
   config = json.loads(args.config) if args.config else None
   options = json.loads(args.options) if args.options else None
-  for family, spec in specs(args.seeds, edits, config, args.steps, options).items():
+  for family, spec in specs(args.seeds, edits, config, args.steps, options, args.env).items():
     if args.only and family != args.only:
       continue
     if args.objective and args.objective not in spec["objective"]:

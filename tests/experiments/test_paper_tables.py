@@ -1,0 +1,71 @@
+"""benchmarks/paper_tables.py: the paper's rows per env, the sweep specs that train them and the
+verdicts that compare blx with them."""
+
+import importlib.util
+import math
+import pathlib
+
+import pytest
+from scipy import stats
+
+from blx.experiments import sweep
+
+_PATH = pathlib.Path(__file__).resolve().parents[2] / "benchmarks" / "paper_tables.py"
+_spec = importlib.util.spec_from_file_location("paper_tables", _PATH)
+paper_tables = importlib.util.module_from_spec(_spec)
+_spec.loader.exec_module(paper_tables)
+
+
+@pytest.mark.parametrize("env,steps", [("ant", 60_000_000), ("halfcheetah", 200_000_000),
+                                       ("humanoid", 100_000_000)])
+def test_specs_train_every_row_of_the_env_with_twice_its_ppo_row(env, steps):
+  specs = paper_tables.specs(10, env=env)
+  trained = {}
+  for family, spec in specs.items():
+    for _, run_spec in sweep.expand(spec):
+      trained[run_spec.objective] = (family, run_spec)
+  assert set(trained) == set(paper_tables.PAPER[env])
+  for objective, (family, run_spec) in trained.items():
+    assert run_spec.env == env
+    assert run_spec.ppo["num_timesteps"] == steps
+    assert run_spec.seeds == tuple(range(10))
+    assert run_spec.objective_options["obs_indices"] == "vel"
+    assert run_spec.objective_options["obs_scale"] == (8.0 if family == "dmin" else 5.0)
+    if family == "mimax":
+      assert run_spec.objective_options["spectral_norm"] is True
+
+
+def test_specs_reject_an_env_without_paper_rows():
+  with pytest.raises(ValueError, match="hopper.*'ant', 'halfcheetah', 'humanoid'"):
+    paper_tables.specs(10, env="hopper")
+
+
+def test_verdicts_use_the_rows_of_the_env_the_run_trained_on():
+  # Humanoid DIAYN's paper MI is 0.927 +- 0.128 (mean - std 0.799), Ant's 1.115 +- 0.268 (0.847):
+  # a mean of 0.83 reaches the first and not the second.
+  values = [0.80, 0.84, 0.86, 0.82, 0.83]
+  run = {"objective": "diayn", "env": "humanoid", "per_seed": {"eval/mi": values}}
+  (row,) = [r for r in paper_tables.verdicts(run) if "eval/mi" in r]
+  assert row.startswith("| humanoid | diayn | eval/mi |") and "0.927 ± 0.128" in row
+  assert row.endswith("| yes |")  # 0.83 >= 0.927 - 0.128
+  (row,) = [r for r in paper_tables.verdicts(dict(run, env="ant")) if "eval/mi" in r]
+  assert "1.115 ± 0.268" in row and row.endswith("| **no** |")  # 0.83 < 0.847
+  # eval.json files written before runs recorded their env are Ant's.
+  legacy = {"objective": "diayn", "per_seed": {"eval/mi": values}}
+  assert paper_tables.verdicts(legacy) == paper_tables.verdicts(dict(run, env="ant"))
+
+
+def test_energy_distance_is_compared_as_minus_the_distance():
+  run = {"objective": "gail", "env": "halfcheetah",
+         "per_seed": {"eval/energy_distance": [0.4, 0.5, 0.6]}}
+  (row,) = paper_tables.verdicts(run)
+  assert "-0.500 ± 0.082 (3)" in row and "-0.516 ± 0.640" in row and row.endswith("| yes |")
+
+
+def test_welch_matches_scipy_with_both_stds_as_sample_stds():
+  values = [1.0, 1.3, 0.7, 1.1]
+  mean, std, n = 1.5, 0.2, 10  # the paper's std is over its n seeds (population)
+  t, _, p = paper_tables.welch(values, mean, std, n)
+  ref = stats.ttest_ind_from_stats(
+      sum(values) / 4, stats.tstd(values), 4, mean, std * math.sqrt(n / (n - 1)), n, equal_var=False)
+  assert t == pytest.approx(ref.statistic) and p == pytest.approx(ref.pvalue)
