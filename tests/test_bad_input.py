@@ -149,6 +149,8 @@ def _desc_cases():
   yield _with("components.ball.component_params", {"size": (0.1,)}), "size"
   yield _with("components.ball.component_params", {"collider_type": "cube"}), "collider_type"
   yield _with("components.ball.frozen", "yes"), "frozen"
+  octopus = dict(components=dict(agent1=dict(component="octopus")))
+  yield _with("components.agent1.component_params", {"all_collide": "yes"}, octopus), "all_collide"
   yield _with("components.ball.collide", 0), "collide"
   yield _with("components.agent1.observers", "root_vec"), "observers"
   yield _with("components.agent1.reward_fns.g.sdcomp", "speed", GOAL), "sdcomp"

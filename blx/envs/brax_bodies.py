@@ -62,7 +62,7 @@ import numpy as np
 from blx.envs.spec import MAX_LEGS, MIN_LEGS, ComponentSpec, Termination
 from blx.envs.mjcf import Element
 
-__all__ = ["ant", "pro_ant", "halfcheetah", "humanoid", "ANT_DAMPING", "ANT_STRENGTH", "ANT_OPTIONS",
+__all__ = ["ant", "pro_ant", "octopus", "halfcheetah", "humanoid", "ANT_DAMPING", "ANT_STRENGTH", "ANT_OPTIONS",
            "ANT_FAST_OPTIONS",
            "CHEETAH_LINKS", "CHEETAH_RADIUS", "cheetah_skeleton", "cheetah_spec", "ant_spec"]
 
@@ -179,6 +179,92 @@ def pro_ant(num_legs: int = 4, limit_damping: float = ANT_LIMIT[1]) -> Component
   return _brax_ant(num_legs, 0.0, PRO_ANT_STRENGTH, brax_axes=False,
                    limit_damping=_check_limit_damping("pro_ant", limit_damping))
 
+
+
+# Braxlines' octopus (its ``components/octopus.py``): every body 1 kg with inertia 1, every joint a
+# hinge of +-45 deg, angular damping 10, limit strength 400, motor strength 150.
+OCTOPUS_STRENGTH = 150.0
+OCTOPUS_DAMPING = 10.0
+# solreflimit time constant: the ant's 10 ms scaled by sqrt(5000 / 400) for Brax's limit strengths
+# (the ant's 5000 against the octopus's 400 N m/rad), critically damped as the ant's.
+OCTOPUS_LIMIT = (0.01 * math.sqrt(5000.0 / 400.0), 1.0)
+OCTOPUS_ARMS = 8
+
+
+def _capsule_along(body: Element, name: str, centre, direction, length: float, radius: float):
+  """A capsule of Brax's ``length`` (end to end, caps included) centred at ``centre``."""
+  half = 0.5 * length - radius
+  c, d = np.asarray(centre, float), np.asarray(direction, float)
+  body.add("geom", name=name, type="capsule", size=radius, mass=0,
+           fromto=tuple(np.round(np.concatenate([c - half * d, c + half * d]), 12)))
+
+
+def octopus(all_collide: bool = False) -> ComponentSpec:
+  """Braxlines' octopus: a free root, a yawing body, a head and 8 arms of 3 links; 27 bodies of 1 kg
+  (inertia 1), 26 hinges of +-45 deg, each driven by a motor of strength 150.
+
+  The root (a 1 cm sphere) carries the body on a vertical hinge; the head (a capsule of radius 6.2 cm
+  and length 23.4 cm, leaning 45 deg back) hangs on the body from a hinge about x. Arm ``i`` leaves
+  the head 1.5 cm above the root, turned 45 i deg about z, and lies flat: a 5.8 cm link then two of
+  11.8 cm (radius 2.2 cm), 7.4 cm apart, each on a hinge across the arm (about the link's own x).
+  As in Brax v1, a body's centre of mass is its joint point. The episode ends when the root turns
+  upside down (Braxlines' upright rule); there is no height rule.
+
+  ``all_collide``: the original's collide list was rebuilt inside its loop over the arms, so only
+  the three links of the last arm (arm 7) collide with the floor and everything else passes through
+  it. That is the default, as the paper's code ran it. ``True`` gives what the loop meant: the root,
+  body, head and every arm link collide (a deviation).
+
+  What differs from Brax v1 beyond the notes above: the arm capsules lie exactly along the link (Brax
+  tilts them by 0.05 deg), and the joints are rigid hinges (Brax's are springs of stiffness 7500).
+  """
+  if not isinstance(all_collide, bool):
+    raise ValueError(f"octopus: all_collide={all_collide!r} must be True or False")
+  limits = dict(limited="true", range=(-math.radians(45), math.radians(45)),
+                solreflimit=OCTOPUS_LIMIT, damping=OCTOPUS_DAMPING, armature=0)
+  root = Element("body", {"name": "root", "pos": (0, 0, 0)})
+  root.add("freejoint", name="root")
+  _inertial(root, 1.0)
+  root.add("geom", name="root_geom", type="sphere", pos=(0, 0, 0.01), size=0.01, mass=0)
+  body = root.add("body", name="body", pos=(0, 0, 0))
+  body.add("joint", name="body_yaw", type="hinge", axis=(0, 0, 1), **limits)
+  _inertial(body, 1.0)
+  body.add("geom", name="body_geom", type="sphere", pos=(0, 0, 0.01), size=0.01, mass=0)
+  head = body.add("body", name="head", pos=(0, 0, 0))
+  head.add("joint", name="head_pitch", type="hinge", axis=(1, 0, 0), **limits)
+  _inertial(head, 1.0)
+  lean = math.radians(45)
+  _capsule_along(head, "head_geom", (-0.037, 0, 0.1181), (-math.sin(lean), 0, math.cos(lean)),
+                 0.234, 0.062)
+  motors = [("body_yaw", OCTOPUS_STRENGTH), ("head_pitch", OCTOPUS_STRENGTH)]
+  colliders, bodies = ["root_geom", "body_geom", "head_geom"], ["root", "body", "head"]
+  arm_links = []
+  for i in range(OCTOPUS_ARMS):
+    yaw = math.radians(45.0 * i)
+    parent, pos = head, (0, 0, 0.015)
+    for k, (centre, length) in enumerate(((0.0683, 0.058), (0.037, 0.118), (0.037, 0.118))):
+      name = f"arm_{i}_{k}"
+      attrs = dict(name=name, pos=pos)
+      if k == 0:
+        attrs["quat"] = (math.cos(yaw / 2), 0, 0, math.sin(yaw / 2))
+      link = parent.add("body", **attrs)
+      link.add("joint", name=name, type="hinge", axis=(1, 0, 0), **limits)
+      _inertial(link, 1.0)
+      _capsule_along(link, f"{name}_geom", (0, centre, 0), (0, 1, 0), length, 0.022)
+      motors.append((name, OCTOPUS_STRENGTH))
+      arm_links.append(f"{name}_geom")
+      bodies.append(name)
+      parent, pos = link, (0, 0.074, 0)
+  colliders = colliders + arm_links if all_collide else arm_links[-3:]
+  return ComponentSpec(
+      bodies=(root,), motors=tuple(motors), root="root", root_linear={-1: "root"},
+      colliders=tuple(colliders),
+      root_colliders=("root_geom",) if all_collide else (),
+      observers=("root_z_joints",),
+      termination=Termination(check_flip=True),
+      rest_on_ground=True,
+      torque_cut=True,
+  )
 
 # --------------------------------------------------------------------------------------------------
 # Half-cheetah. The link geometry is MuJoCo's half_cheetah.xml, which Brax v1 copied; ``gym_halfcheetah``

@@ -249,6 +249,7 @@ def point(gear: float = 4.0, damping: float = 2.0) -> ComponentSpec:
 _COMPONENTS: dict[str, Callable[..., ComponentSpec]] = {
     "ant": brax_bodies.ant,
     "pro_ant": brax_bodies.pro_ant,
+    "octopus": brax_bodies.octopus,
     "humanoid": brax_bodies.humanoid,
     "halfcheetah": brax_bodies.halfcheetah,
     "gym_ant": gym_ant,

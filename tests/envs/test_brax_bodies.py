@@ -267,6 +267,78 @@ def test_pro_ant_shares_the_ant_legs():
 
 
 # --------------------------------------------------------------------------------------------------
+# Octopus (Braxlines' components/octopus.py)
+
+
+def _names(m, kind, ids):
+  return {mujoco.mj_id2name(m, kind, int(i)) for i in ids}
+
+
+def test_octopus_has_braxlines_bodies_joints_and_motors():
+  m = _env("octopus_run").mj_model
+  assert m.nbody - 1 == 27 and m.nu == 26
+  np.testing.assert_allclose(m.body_mass[1:], 1.0)  # 27 kg in all
+  np.testing.assert_allclose(m.body_inertia[1:], 1.0)
+  hinges = np.flatnonzero(m.jnt_type == mujoco.mjtJoint.mjJNT_HINGE)
+  assert len(hinges) == 26
+  np.testing.assert_allclose(m.jnt_range[hinges], np.radians([[-45.0, 45.0]] * 26), rtol=1e-6)
+  np.testing.assert_allclose(m.dof_damping[m.jnt_dofadr[hinges]], 10.0)
+  np.testing.assert_allclose(m.actuator_gear[:, 0], 150.0)
+  assert m.opt.timestep * 16 == pytest.approx(0.02)  # the original's 0.02 s in 16 substeps
+
+
+def test_octopus_arms_fan_out_flat_every_45_degrees():
+  env = _env("octopus_run")
+  m, d = env.mj_model, mujoco.MjData(env.mj_model)
+  d.qpos[:] = env.init_qpos
+  mujoco.mj_forward(m, d)
+  root = d.qpos[:3]
+  for i in range(8):
+    tip = d.geom_xpos[mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, f"agent1/arm_{i}_2_geom")]
+    reach = tip[:2] - root[:2]
+    # arm 0 points along +y; arm i is turned 45 i degrees about z
+    angle = np.degrees(np.arctan2(reach[1], reach[0]))
+    assert (angle - (90.0 + 45.0 * i) + 180.0) % 360.0 - 180.0 == pytest.approx(0.0, abs=1e-3)  # MJCF's printed digits
+    assert np.linalg.norm(reach) == pytest.approx(0.037 + 2 * 0.074, abs=1e-6)
+    assert tip[2] == pytest.approx(root[2] + 0.015, abs=1e-6)  # flat, at the arms' height
+
+
+@pytest.mark.parametrize("all_collide", [False, True])
+def test_octopus_touches_the_floor_with_arm_7_only_as_the_original(all_collide):
+  """The original's collide list kept only the last arm; ``all_collide`` restores every link."""
+  env = _env("octopus_run", all_collide=all_collide)
+  m = env.mj_model
+  touched, lowest = set(), []
+  rng = np.random.default_rng(0)
+  out = ref.run(env, lambda t, q: rng.uniform(-1, 1, env.action_size), 100)
+  d = mujoco.MjData(m)
+  for qpos in out["qpos"][::10]:
+    d.qpos[:] = qpos
+    mujoco.mj_forward(m, d)
+    touched |= _names(m, mujoco.mjtObj.mjOBJ_GEOM,
+                      [g for c in d.contact[:d.ncon] for g in (c.geom1, c.geom2)])
+    lowest.append(qpos[2])
+  touched.discard("ground")
+  arm7 = {f"agent1/arm_7_{k}_geom" for k in range(3)}
+  if all_collide:
+    assert len(touched - arm7) >= 4  # the head, the root or other arms rest on the floor too
+    assert min(lowest) > -0.01  # nothing sinks through it
+  else:
+    assert touched and touched <= arm7
+    assert min(lowest) < -0.01  # the root and head pass through the floor
+
+
+def test_octopus_run_ends_when_the_root_turns_upside_down():
+  reset, step = step_fn("octopus_run")
+  env = make_env("octopus_run")
+  state = reset(jax.random.PRNGKey(0))
+  zero = jnp.zeros(env.action_size)
+  assert float(step(state, zero).done) == 0.0
+  flipped = state.data.replace(qpos=state.data.qpos.at[3:7].set(jnp.array([0.0, 1.0, 0.0, 0.0])))
+  assert float(step(state.replace(data=flipped), zero).done) == 1.0
+
+
+# --------------------------------------------------------------------------------------------------
 # Half-cheetah and humanoid
 
 

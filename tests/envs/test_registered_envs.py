@@ -17,9 +17,9 @@ ENV_NAMES = envs.list_envs()
 def test_registry_lists_the_required_envs():
   required = {"point", "ant", "humanoid", "halfcheetah", "ant_run", "ant_push", "ant_chase",
               "pro_ant_run", "humanoid_run", "halfcheetah_run", "gym_ant", "gym_humanoid",
-              "gym_halfcheetah", "ant_on_ball", "follow", "chase", "sumo"}
+              "gym_halfcheetah", "ant_on_ball", "octopus_run", "follow", "chase", "sumo"}
   assert required <= set(ENV_NAMES)
-  assert {"ant", "pro_ant", "humanoid", "halfcheetah", "gym_ant", "gym_humanoid",
+  assert {"ant", "pro_ant", "octopus", "humanoid", "halfcheetah", "gym_ant", "gym_humanoid",
           "gym_halfcheetah", "singleton", "point", "ground"} <= set(envs.list_components())
 
 
