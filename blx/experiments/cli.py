@@ -129,6 +129,8 @@ def _given(args) -> dict:
     given["objective"] = args.objective
   if args.seeds is not None:
     given["seeds"] = list(_parse_seeds(args.seeds))
+  if args.agent is not None:
+    given["agent"] = args.agent
   options = _parse_pairs(args.option, "--option")
   if args.num_skills is not None:
     options["num_skills"] = args.num_skills
@@ -152,7 +154,7 @@ def _spec_from_args(args):
   options = pick("option:")
   return runs.RunSpec(env=env, objective=objective, objective_options=options,
                       ppo=pick("config:"), seeds=tuple(given.get("seeds", (0,))),
-                      env_params=pick("env_param:"))
+                      env_params=pick("env_param:"), agent=given.get("agent"))
 
 
 def _resume_spec(args, directory: str):
@@ -160,6 +162,7 @@ def _resume_spec(args, directory: str):
   from blx.experiments import runs
   spec = runs.read_spec(directory)
   have = {"env": spec.env, "objective": spec.objective, "seeds": list(spec.seeds),
+          **({"agent": spec.agent} if spec.agent is not None else {}),
           **{f"option:{k}": v for k, v in spec.objective_options.items()},
           **{f"config:{k}": v for k, v in spec.ppo.items()},
           **{f"env_param:{k}": v for k, v in spec.env_params.items()}}
@@ -342,6 +345,10 @@ def _parser() -> argparse.ArgumentParser:
   p.add_argument("--obs-indices", default=None,
                  help="a name such as vel_xy (see `blx envs ENV`) or a list such as [13,14]")
   p.add_argument("--steps", type=int, default=None, help="env steps (default: the env's PPO row)")
+  p.add_argument("--agent", default=None,
+                 help="multi-agent envs: pay the (reward-free) objective to this agent only; the "
+                      "others keep their env rewards (default obs indices: the agent's xy "
+                      "velocity)")
   p.add_argument("--seeds", default=None,
                  help="comma-separated, trained in one vmapped program (default 0)")
   p.add_argument("--config", action="append", metavar="KEY=VALUE", help="a PPOConfig field")

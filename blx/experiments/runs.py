@@ -50,6 +50,9 @@ class RunSpec:
   seeds: tuple[int, ...] = (0,)
   env_params: dict = dataclasses.field(default_factory=dict)
   desc: dict | None = None
+  # A multi-agent env: the agent the (reward-free) objective pays; the others keep their env rewards
+  # (``objectives.for_agent``). None: the objective is the whole env's.
+  agent: str | None = None
 
 
 class Run(NamedTuple):
@@ -90,13 +93,43 @@ def build(spec: RunSpec):
     env = envs.create(spec.env, **spec.env_params)
   options = dict(spec.objective_options)
   accepted = objectives.options_of(spec.objective)  # also rejects an unknown objective
+  agent = _check_agent(spec, env)
   if "obs_indices" in accepted:
-    options.setdefault("obs_indices", default_obs_indices(spec.env))
+    options.setdefault("obs_indices", default_obs_indices(spec.env) if agent is None
+                       else _agent_obs_indices(spec, env))
   if "env" in accepted:
     options["env"] = env
   objective = objectives.make(spec.objective, **options)
+  if agent is not None:
+    objective = objectives.for_agent(objective, agent=agent,
+                                     num_agents=len(envs.unwrap(env).agent_names))
   config = training.ppo_defaults(spec.env).replace(**spec.ppo)
   return env, objective, config
+
+
+def _check_agent(spec: RunSpec, env) -> int | None:
+  """The index of ``spec.agent`` in the env's agents, or None; errors name what is valid."""
+  if spec.agent is None:
+    return None
+  names = list(envs.unwrap(env).agent_names)
+  if not names:
+    raise ValueError(f"agent {spec.agent!r}: {spec.env!r} is a single-agent env; leave the agent "
+                     "out (the objective is the env's)")
+  if spec.agent not in names:
+    raise ValueError(f"agent {spec.agent!r}: {spec.env!r} has agents {names}")
+  if spec.objective == "task":
+    raise ValueError(f"agent {spec.agent!r} with objective 'task': every agent already gets its own "
+                     "env reward; name a reward-free objective (e.g. diayn) to pay to one agent")
+  return names.index(spec.agent)
+
+
+def _agent_obs_indices(spec: RunSpec, env) -> str:
+  """The agent's own xy velocity (its component's), the feature reward-free objectives default to."""
+  name = f"{spec.agent}/vel_xy"
+  if name not in env.named_indices:
+    raise ValueError(f"agent {spec.agent!r}: no {name!r} in the observation; give the objective's "
+                     "obs_indices (e.g. --obs-indices [i,j])")
+  return name
 
 
 def write_config(directory: str, spec: RunSpec, env) -> None:
@@ -104,7 +137,7 @@ def write_config(directory: str, spec: RunSpec, env) -> None:
   data = {"format_version": FORMAT_VERSION, "env": spec.env, "env_params": spec.env_params,
           "desc": env.desc, "objective": spec.objective,
           "objective_options": spec.objective_options,
-          "ppo": spec.ppo, "seeds": list(spec.seeds)}
+          "ppo": spec.ppo, "seeds": list(spec.seeds), "agent": spec.agent}
   tmp = os.path.join(directory, "config.json.tmp")
   with open(tmp, "w") as f:
     json.dump(data, f, indent=2, default=json_default)
@@ -160,7 +193,8 @@ def read_spec(directory: str) -> RunSpec:
         env_params.setdefault(key, ppo.pop(key))
     return RunSpec(env=data["env"], objective=data["objective"],
                    objective_options=data["objective_options"], ppo=ppo,
-                   seeds=tuple(data["seeds"]), env_params=env_params, desc=data.get("desc"))
+                   seeds=tuple(data["seeds"]), env_params=env_params, desc=data.get("desc"),
+                   agent=data.get("agent"))
   except KeyError as e:
     raise RunError(f"{path}: missing key {e}") from None
 

@@ -7,7 +7,8 @@ A spec is a dict (from JSON, YAML, or a Python file defining ``SPEC``)::
     {"name": "mimax_point", "env": "point", "objective": ["diayn", "gcrl"], "seeds": [0, 1],
      "steps": 100000, "config": {"num_envs": 64}, "options": {"num_skills": 4}}
 
-Lists at the top level (``env``, ``objective``, ``steps``) or inside ``config`` / ``options`` /
+``agent`` (multi-agent envs) pays the objective to that agent only (``blx train --agent``).
+Lists at the top level (``env``, ``objective``, ``steps``, ``agent``) or inside ``config`` / ``options`` /
 ``env_params`` are grid axes; ``seeds`` is vmapped inside each run. A setting whose value is
 itself a list is a one-point axis: ``"policy_hidden": [[64, 64]]``.
 """
@@ -27,7 +28,8 @@ from blx.options import check_names
 
 __all__ = ["load_spec", "check_spec", "expand", "run_sweep"]
 
-_KEYS = {"name", "env", "objective", "seeds", "steps", "config", "options", "env_params", "out"}
+_KEYS = {"name", "env", "objective", "seeds", "steps", "config", "options", "env_params", "out",
+         "agent"}
 
 
 def load_spec(path: str) -> dict:
@@ -82,7 +84,7 @@ def check_spec(spec: dict, where: str = "sweep spec") -> None:
 
 def _axes(spec: dict) -> list[tuple[tuple[str, ...], list]]:
   axes = []
-  for key in ("env", "objective", "steps"):
+  for key in ("env", "objective", "steps", "agent"):
     if isinstance(spec.get(key), list):
       axes.append(((key,), spec[key]))
   for group in ("config", "options", "env_params"):
@@ -106,7 +108,7 @@ def expand(spec: dict) -> list[tuple[str, runs.RunSpec]]:
     run_spec = runs.RunSpec(env=get("env"), objective=get("objective"),
                             objective_options=group("options"), ppo=ppo,
                             seeds=tuple(int(s) for s in spec.get("seeds", [0])),
-                            env_params=group("env_params"))
+                            env_params=group("env_params"), agent=get("agent"))
     varied = {path: v for (path, options), v in zip(axes, point) if len(options) > 1}
     name = "__".join(f"{path[-1]}={_fmt(v)}" for path, v in varied.items()) or "run"
     points.append((name, run_spec))

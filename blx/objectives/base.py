@@ -90,7 +90,7 @@ def for_agent(objective: Objective, agent: int, num_agents: int) -> Objective:
   ``env_reward_multiplier`` mixes in the agent's own task reward). Everything else (latent,
   discriminator loss, spec) is ``objective``'s: the latent conditions every agent's policy, since
   all agents see the same observation, but only ``agent`` is paid for it. MAPPO trains it like
-  ``task``. (The command line does not offer it yet; use the API.)
+  ``task``. On the command line: ``blx train --env ENV --objective NAME --agent AGENT``.
   """
   if isinstance(num_agents, bool) or not isinstance(num_agents, int) or num_agents < 2:
     raise ValueError(f"for_agent: num_agents must be an int >= 2, got {num_agents!r}")

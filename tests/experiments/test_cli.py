@@ -6,6 +6,7 @@ from __future__ import annotations
 import csv
 import json
 import os
+import re
 import shutil
 import subprocess
 import sys
@@ -343,3 +344,49 @@ def test_a_multi_agent_scene_trains_evaluates_and_renders_every_agent(tmp_path, 
   if "rendering needs an OpenGL backend" in proc.stderr:
     pytest.skip("no headless OpenGL on this machine (install libegl1 or libosmesa6)")
   assert proc.returncode == 0, proc.stderr[-2000:]
+
+
+def test_agent_pays_a_reward_free_objective_to_one_agent_of_a_scene(tmp_path, capsys):
+  out = str(tmp_path / "chase_diayn")
+  scene = ["--env", "chase", "--env-param", "main_agent='point'", "--env-param",
+           "other_agent='point'"]
+  assert cli.main(["train", *scene, "--objective", "diayn", "--num-skills", "2", "--agent",
+                   "agent1", "--out", out, *TINY]) == 0
+  config = json.load(open(os.path.join(out, "config.json")))
+  assert config["agent"] == "agent1"
+  from blx.experiments import runs
+  run = runs.load_run(out)
+  assert run.spec.agent == "agent1" and run.objective.name == "diayn@agent1"
+  # The objective reads the agent's own velocity, not the main component's.
+  assert run.objective.spec.obs_indices == run.env.obs_indices("agent1/vel_xy")
+  assert run.objective.spec.obs_indices != run.env.obs_indices("vel_xy")
+  capsys.readouterr()
+  assert cli.main(["eval", out, "--json"]) == 0
+  assert "eval/mi" in json.loads(capsys.readouterr().out)["per_seed"]
+  assert cli.main(["train", "--resume", out, "--agent", "agent0"]) == 2
+  assert "--agent 'agent0' contradicts the run, where it is 'agent1'" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("args, named", [
+    (["--env", "point", "--agent", "agent1"], "single-agent env"),
+    (["--env", "chase", "--env-param", "main_agent='point'", "--env-param", "other_agent='point'",
+      "--agent", "agent7"], r"has agents \['agent0', 'agent1'\]"),
+    (["--env", "chase", "--env-param", "main_agent='point'", "--env-param", "other_agent='point'",
+      "--objective", "task", "--agent", "agent0"], "already gets its own env reward"),
+])
+def test_bad_agent_is_named_before_a_run_directory_is_made(tmp_path, capsys, args, named):
+  out = tmp_path / "run"
+  assert cli.main(["train", *args, "--out", str(out), *TINY]) == 2
+  assert re.search(named, capsys.readouterr().err)
+  assert not out.exists()
+
+
+def test_a_sweep_spec_can_name_the_agent_or_sweep_over_agents():
+  from blx.experiments import sweep
+  spec = {"env": "chase", "objective": "diayn", "agent": ["agent0", "agent1"],
+          "env_params": {"main_agent": "point", "other_agent": "point"}}
+  points = sweep.expand(spec)
+  assert [(name, s.agent) for name, s in points] == [("agent=agent0", "agent0"),
+                                                      ("agent=agent1", "agent1")]
+  (name, one), = sweep.expand(dict(spec, agent="agent1"))
+  assert one.agent == "agent1"
