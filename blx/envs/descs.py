@@ -108,8 +108,11 @@ def halfcheetah_run():
               global_options=dict(CHEETAH_OPTIONS))
 
 
-def ant_push():
+def ant_push(goal_scale: float = 1.0):
   """An ant pushes a ball (radius 0.5) to a target velocity of 5 m/s in x and y, staying near it.
+
+  ``goal_scale`` weighs the ball's velocity term against the ant-to-ball term (the paper's Ant Push
+  sweep: 0.2, 0.5, 1).
 
   Four Newton iterations, as ``ant_chase``: with one, the ant-and-ball solve at 5 ms substeps is
   not converged and float32 MJX and float64 MuJoCo part by 5 mm in the first step.
@@ -121,7 +124,7 @@ def ant_push():
           cap1=dict(component="singleton", component_params=dict(size=0.5), pos=(1.0, 0.0, 0.0),
                     observers=("root_z_joints",),
                     reward_fns=dict(goal=dict(reward_type="root_goal", sdcomp="vel", indices=(0, 1),
-                                              target_goal=5.0, offset=5.0))),
+                                              target_goal=5.0, offset=5.0, scale=goal_scale))),
       ),
       edges=dict(agent1__cap1=dict(
           extra_observers=[dict(observer_type="root_vec", indices=(0, 1))],
@@ -129,8 +132,11 @@ def ant_push():
   )
 
 
-def ant_chase():
+def ant_chase(goal_scale: float = 1.0):
   """agent1 chases agent2, which runs at 4 m/s; the episode ends when agent1 is within 1 m.
+
+  ``goal_scale`` weighs agent2's running term against the chase term (the original's composer
+  sweep: 0.2, 0.5, 1).
 
   Four Newton iterations: with one, the two-ant constraint solve is not converged and float32 MJX
   and float64 MuJoCo part by 2.6 cm in three random steps; with four they agree to 3e-7.
@@ -139,7 +145,8 @@ def ant_chase():
       global_options=dict(ANT_OPTIONS, iterations=4),
       components=dict(
           agent1=dict(component="ant"),
-          agent2=dict(component="ant", pos=(0.0, 2.0, 0.0), reward_fns=dict(goal=_run_goal())),
+          agent2=dict(component="ant", pos=(0.0, 2.0, 0.0),
+                      reward_fns=dict(goal=dict(_run_goal(), scale=goal_scale))),
       ),
       edges=dict(agent1__agent2=dict(
           extra_observers=[dict(observer_type="root_vec", indices=(0, 1))],

@@ -64,3 +64,15 @@ def test_jit_vmap_rollout_is_finite_and_matches_mujoco(name):
       mujoco.mj_step(model, data)
     np.testing.assert_allclose(qpos[t, 0], data.qpos, atol=2e-3, rtol=1e-3,
                                err_msg=f"{name}: MJX and MuJoCo disagree at step {t}")
+
+
+
+def test_goal_scale_weighs_the_goal_term_of_ant_push_and_ant_chase_only():
+  # The reward key ``scale`` multiplies a term ((r + offset) * scale; tested with the composer);
+  # here: the parameter reaches the goal term and no other.
+  for name, path in (("ant_push", ("components", "cap1")), ("ant_chase", ("components", "agent2"))):
+    full, fifth = envs.create(name).desc, envs.create(name, goal_scale=0.2).desc
+    assert fifth[path[0]][path[1]]["reward_fns"]["goal"]["scale"] == 0.2
+    fifth[path[0]][path[1]]["reward_fns"]["goal"].pop("scale")
+    full[path[0]][path[1]]["reward_fns"]["goal"].pop("scale", None)
+    assert fifth == full
