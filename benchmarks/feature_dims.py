@@ -1,0 +1,105 @@
+"""MI(s_d, z) and H(s_d) per observation dimension d of trained MI-max runs: the paper's feature
+engineering figures (DIAYN on xy velocity against DIAYN_FULL on the whole observation, Ant, the
+first 30 dimensions), #15.
+
+    python benchmarks/feature_dims.py RUN_DIR [RUN_DIR ...] [--dims 30] [--out feature_dims.png]
+
+Each run's policy is rolled out as the paper's MI evaluation does (every skill, 10 episodes each,
+sampled actions, the last 500 steps), for every seed of the run; each dimension's particle MI and
+H(s) (Algorithm 1, 1000 bins over +-obs_scale of the run's objective) are averaged over seeds. One
+figure with two panels (MI per dimension, H(s) per dimension), one bar per run and dimension, and
+a JSON beside it with the numbers.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+from typing import Any, Callable
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+
+def scan(env: Any, objective: Any, policy: Callable, params: Any, dims, key: jax.Array, *,
+         episodes_per_latent: int = 10, last_steps: int = 500, bins: int = 1000) -> dict:
+  """``{"mi": [D], "entropy": [D]}`` of observation dims ``dims`` for one policy (one seed)."""
+  from blx.metrics import evaluate, particle
+  dims = np.asarray(dims)
+  z_key, roll_key = jax.random.split(key)
+  latents = evaluate.latents_for_evaluation(objective, z_key, 10)
+  states = evaluate.rollout(env, policy, params, latents, roll_key,
+                            episodes_per_latent=episodes_per_latent)[..., dims]
+  states = states[:, :, -last_steps:]
+  num = latents.shape[0]
+  labels = jnp.repeat(jnp.arange(num), states.shape[1] * states.shape[2])
+  scale = objective.spec.obs_scale
+  out = particle.mutual_information(states.reshape(-1, len(dims)), labels, bins=bins,
+                                    value_range=(-scale, scale), num_labels=num)
+  return {"mi": np.asarray(out["mi"]), "entropy": np.asarray(out["entropy"])}
+
+
+def scan_run(directory: str, dims, seed: int = 0) -> dict:
+  """Per-dimension MI and H(s) of every seed of the run in ``directory``: ``{"mi": [S, D], ...}``."""
+  from blx.experiments import runs
+  run = runs.load_run(directory)
+  fn = jax.jit(lambda p, k: scan(run.env, run.objective, run.policy, p, dims, k))
+  per_seed = [fn(jax.tree.map(lambda x: x[i], run.params), jax.random.PRNGKey(seed))
+              for i in range(len(run.spec.seeds))]
+  return {key: np.stack([np.asarray(s[key]) for s in per_seed]) for key in ("mi", "entropy")}
+
+
+def plot(results: dict[str, dict], dims, path: str) -> None:
+  """Two panels of bars: mean over seeds (error bar: std) per dimension, one colour per run."""
+  import matplotlib
+  matplotlib.use("Agg")
+  import matplotlib.pyplot as plt
+  dims = list(dims)
+  fig, axes = plt.subplots(2, 1, figsize=(max(8, 0.4 * len(dims) * len(results)), 6), sharex=True)
+  width = 0.8 / len(results)
+  x = np.arange(len(dims))
+  for ax, key, title in zip(axes, ("mi", "entropy"), ("MI(s_d, z)", "H(s_d)")):
+    for j, (name, r) in enumerate(results.items()):
+      ax.bar(x + (j - (len(results) - 1) / 2) * width, r[key].mean(0), width,
+             yerr=r[key].std(0) if r[key].shape[0] > 1 else None, label=name, capsize=1.5)
+    ax.set_ylabel(title)
+    ax.grid(axis="y", alpha=0.3)
+  axes[0].legend(fontsize=8)
+  axes[1].set_xticks(x, [str(d) for d in dims], fontsize=7)
+  axes[1].set_xlabel("observation dimension")
+  axes[0].set_title("per observation dimension (mean ± std over seeds)", fontsize=9)
+  fig.tight_layout()
+  fig.savefig(path, dpi=120)
+  plt.close(fig)
+
+
+def main():
+  parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+  parser.add_argument("runs", nargs="+", help="run directories (blx train / sweep points)")
+  parser.add_argument("--dims", type=int, default=30, help="the first N observation dimensions")
+  parser.add_argument("--out", default="feature_dims.png")
+  args = parser.parse_args()
+  from blx.experiments import runs
+  first = runs.load_run(args.runs[0], need_checkpoint=False)
+  size = first.env.observation_size
+  if not 1 <= args.dims <= size:
+    parser.error(f"--dims {args.dims}: the observation has {size} dimensions")
+  dims = list(range(args.dims))
+  results = {}
+  for directory in args.runs:
+    label = f"{runs.read_spec(directory).objective} ({os.path.basename(os.path.normpath(directory))})"
+    results[label] = scan_run(directory, dims)
+  plot(results, dims, args.out)
+  with open(os.path.splitext(args.out)[0] + ".json", "w") as f:
+    json.dump({k: {m: v.tolist() for m, v in r.items()} for k, r in results.items()}, f)
+  for label, r in results.items():
+    mi = r["mi"].mean(0)
+    top = np.argsort(-mi)[:5]
+    print(f"{label}: highest MI at dims {top.tolist()} ("
+          + ", ".join(f"{mi[d]:.3f}" for d in top) + ")")
+
+
+if __name__ == "__main__":
+  main()

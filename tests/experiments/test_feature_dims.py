@@ -1,0 +1,44 @@
+"""benchmarks/feature_dims.py: MI and H(s) per observation dimension of a policy."""
+
+import importlib.util
+import math
+import pathlib
+import sys
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from blx import objectives
+from tests.conftest import make_env
+
+_PATH = pathlib.Path(__file__).resolve().parents[2] / "benchmarks" / "feature_dims.py"
+_spec = importlib.util.spec_from_file_location("feature_dims", _PATH)
+feature_dims = importlib.util.module_from_spec(_spec)
+sys.modules["feature_dims"] = feature_dims
+_spec.loader.exec_module(feature_dims)
+
+
+def _split_on_x(params, obs, z, key=None, deterministic=False):
+  """Skill 0 pushes the point to +x at full force, skill 1 to -x; nothing moves it in y."""
+  return jnp.stack([z[:, 0] - z[:, 1], jnp.zeros(z.shape[0])], -1)
+
+
+def test_scan_finds_the_skill_in_the_dimension_the_policy_uses_and_none_elsewhere(tmp_path):
+  env = make_env("point")  # observation: x, y, vx, vy
+  objective = objectives.make("diayn", num_skills=2, obs_indices="pos_xy", env=env)
+  r = feature_dims.scan(env, objective, _split_on_x, None, [0, 1, 2, 3], jax.random.PRNGKey(0),
+                        last_steps=25)
+  # x velocity: the two skills never share a bin, so MI = H(s) = log 2 (two equal skills).
+  assert r["mi"][2] == np.float32(math.log(2)) and r["entropy"][2] == np.float32(math.log(2))
+  # y and its velocity stay 0 for both skills: no information and no spread.
+  np.testing.assert_allclose(r["mi"][[1, 3]], 0.0, atol=1e-6)
+  np.testing.assert_allclose(r["entropy"][[1, 3]], 0.0, atol=1e-6)
+  # x position: the skills part too, but both leave the +-obs_scale box the estimator bins, so
+  # only the samples still inside count.
+  assert 0.0 < r["mi"][0] < math.log(2)
+
+  results = {"split": {k: np.stack([v, v]) for k, v in r.items()}}
+  path = str(tmp_path / "dims.png")
+  feature_dims.plot(results, [0, 1, 2, 3], path)
+  assert pathlib.Path(path).stat().st_size > 10_000
