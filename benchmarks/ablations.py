@@ -35,7 +35,8 @@ import math
 import os
 
 _HERE = os.path.dirname(os.path.abspath(__file__))
-_spec = importlib.util.spec_from_file_location("paper_tables", os.path.join(_HERE, "paper_tables.py"))
+_spec = importlib.util.spec_from_file_location("paper_tables",
+                                               os.path.join(_HERE, "paper_tables.py"))
 paper_tables = importlib.util.module_from_spec(_spec)
 _spec.loader.exec_module(paper_tables)
 

@@ -42,7 +42,8 @@ def scan(env: Any, objective: Any, policy: Callable, params: Any, dims, key: jax
 
 
 def scan_run(directory: str, dims, seed: int = 0) -> dict:
-  """Per-dimension MI and H(s) of every seed of the run in ``directory``: ``{"mi": [S, D], ...}``."""
+  """Per-dimension MI and H(s) of every seed of the run in ``directory``:
+  ``{"mi": [S, D], "entropy": [S, D]}``."""
   from blx.experiments import runs
   run = runs.load_run(directory)
   fn = jax.jit(lambda p, k: scan(run.env, run.objective, run.policy, p, dims, k))
@@ -89,7 +90,8 @@ def main():
   dims = list(range(args.dims))
   results = {}
   for directory in args.runs:
-    label = f"{runs.read_spec(directory).objective} ({os.path.basename(os.path.normpath(directory))})"
+    name = os.path.basename(os.path.normpath(directory))
+    label = f"{runs.read_spec(directory).objective} ({name})"
     results[label] = scan_run(directory, dims)
   plot(results, dims, args.out)
   with open(os.path.splitext(args.out)[0] + ".json", "w") as f:

@@ -1,4 +1,4 @@
-"""The paper's Tables 3 and 4 (Ant, HalfCheetah, Humanoid) through the sweep machinery of ``blx sweep``.
+"""The paper's Tables 3 and 4 (Ant, HalfCheetah, Humanoid) through the machinery of ``blx sweep``.
 
     python benchmarks/paper_tables.py [--env ant|halfcheetah|humanoid] [--seeds 10]
                                       [--only gcrl|mimax|dmin] [--objective diayn] [--collect]
@@ -114,7 +114,8 @@ def verdicts(eval_json: dict) -> list[str]:
     sd = math.sqrt(sum((v - mu) ** 2 for v in values) / len(values))
     t, dof, p = welch(values, mean, std)
     ok = "yes" if mu >= mean - std else "**no**"
-    lines.append(f"| {env} | {name} | {key} | {mu:.3f} ± {sd:.3f} ({len(values)}) | {mean:.3f} ± {std:.3f} "
+    lines.append(f"| {env} | {name} | {key} | {mu:.3f} ± {sd:.3f} ({len(values)}) "
+                 f"| {mean:.3f} ± {std:.3f} "
                  f"| {t:+.2f} | {p:.3f} | {ok} |")
   return lines
 

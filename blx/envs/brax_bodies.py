@@ -62,8 +62,8 @@ import numpy as np
 from blx.envs.spec import MAX_LEGS, MIN_LEGS, ComponentSpec, Termination
 from blx.envs.mjcf import Element
 
-__all__ = ["ant", "pro_ant", "octopus", "halfcheetah", "humanoid", "ANT_DAMPING", "ANT_STRENGTH", "ANT_OPTIONS",
-           "ANT_FAST_OPTIONS",
+__all__ = ["ant", "pro_ant", "octopus", "halfcheetah", "humanoid", "ANT_DAMPING", "ANT_STRENGTH",
+           "ANT_OPTIONS", "ANT_FAST_OPTIONS",
            "CHEETAH_LINKS", "CHEETAH_RADIUS", "cheetah_skeleton", "cheetah_spec", "ant_spec"]
 
 ANT_DAMPING = 35.0        # Brax joint angular_damping, N m s/rad
@@ -180,7 +180,6 @@ def pro_ant(num_legs: int = 4, limit_damping: float = ANT_LIMIT[1]) -> Component
                    limit_damping=_check_limit_damping("pro_ant", limit_damping))
 
 
-
 # Braxlines' octopus (its ``components/octopus.py``): every body 1 kg with inertia 1, every joint a
 # hinge of +-45 deg, angular damping 10, limit strength 400, motor strength 150.
 OCTOPUS_STRENGTH = 150.0
@@ -203,20 +202,22 @@ def octopus(all_collide: bool = False) -> ComponentSpec:
   """Braxlines' octopus: a free root, a yawing body, a head and 8 arms of 3 links; 27 bodies of 1 kg
   (inertia 1), 26 hinges of +-45 deg, each driven by a motor of strength 150.
 
-  The root (a 1 cm sphere) carries the body on a vertical hinge; the head (a capsule of radius 6.2 cm
-  and length 23.4 cm, leaning 45 deg back) hangs on the body from a hinge about x. Arm ``i`` leaves
-  the head 1.5 cm above the root, turned 45 i deg about z, and lies flat: a 5.8 cm link then two of
-  11.8 cm (radius 2.2 cm), 7.4 cm apart, each on a hinge across the arm (about the link's own x).
+  The root (a 1 cm sphere) carries the body on a vertical hinge; the head (a capsule of radius
+  6.2 cm and length 23.4 cm, leaning 45 deg back) hangs on the body from a hinge about x. Arm
+  ``i`` leaves the head 1.5 cm above the root, turned 45 i deg about z, and lies flat: a 5.8 cm link
+  then two of 11.8 cm (radius 2.2 cm), 7.4 cm apart, each on a hinge across the arm (about the
+  link's own x).
   As in Brax v1, a body's centre of mass is its joint point. The episode ends when the root turns
   upside down (Braxlines' upright rule); there is no height rule.
 
   ``all_collide``: the original's collide list was rebuilt inside its loop over the arms, so only
   the three links of the last arm (arm 7) collide with the floor and everything else passes through
-  it. That is the default, as the paper's code ran it. ``True`` gives what the loop meant: the root,
-  body, head and every arm link collide (a deviation).
+  it. That is the default, as the original's code ran it. ``True`` gives what the loop meant: the
+  root, body, head and every arm link collide (a deviation).
 
-  What differs from Brax v1 beyond the notes above: the arm capsules lie exactly along the link (Brax
-  tilts them by 0.05 deg), and the joints are rigid hinges (Brax's are springs of stiffness 7500).
+  What differs from Brax v1 beyond the notes above: the arm capsules lie exactly along the link
+  (Brax tilts them by 0.05 deg), and the joints are rigid hinges (Brax's are springs of stiffness
+  7500).
   """
   if not isinstance(all_collide, bool):
     raise ValueError(f"octopus: all_collide={all_collide!r} must be True or False")
@@ -265,6 +266,7 @@ def octopus(all_collide: bool = False) -> ComponentSpec:
       rest_on_ground=True,
       torque_cut=True,
   )
+
 
 # --------------------------------------------------------------------------------------------------
 # Half-cheetah. The link geometry is MuJoCo's half_cheetah.xml, which Brax v1 copied; ``gym_halfcheetah``

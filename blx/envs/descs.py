@@ -59,9 +59,9 @@ def pro_ant_run(num_legs: int = 4):
                                           reward_fns=dict(goal=_run_goal()))))
 
 
-# Braxlines' octopus_run steps 0.02 s per control step as 16 substeps; blx keeps both (at 5 ms x 4 the
-# octopus, which touches the floor with one arm, moves several times faster under the same random
-# actions: the thin contact is sensitive to the step).
+# Braxlines' octopus_run steps 0.02 s per control step as 16 substeps; blx keeps both (at 5 ms x 4
+# the octopus, which touches the floor with one arm, moves several times faster under the same
+# random actions: the thin contact is sensitive to the step).
 OCTOPUS_OPTIONS = dict(timestep=0.00125, substeps=16)
 
 

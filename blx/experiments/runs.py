@@ -118,13 +118,14 @@ def _check_agent(spec: RunSpec, env) -> int | None:
   if spec.agent not in names:
     raise ValueError(f"agent {spec.agent!r}: {spec.env!r} has agents {names}")
   if spec.objective == "task":
-    raise ValueError(f"agent {spec.agent!r} with objective 'task': every agent already gets its own "
-                     "env reward; name a reward-free objective (e.g. diayn) to pay to one agent")
+    raise ValueError(f"agent {spec.agent!r} with objective 'task': every agent already gets its "
+                     "own env reward; name a reward-free objective (e.g. diayn) to pay to one "
+                     "agent")
   return names.index(spec.agent)
 
 
 def _agent_obs_indices(spec: RunSpec, env) -> str:
-  """The agent's own xy velocity (its component's), the feature reward-free objectives default to."""
+  """The agent's own xy velocity (its component's): what reward-free objectives read by default."""
   name = f"{spec.agent}/vel_xy"
   if name not in env.named_indices:
     raise ValueError(f"agent {spec.agent!r}: no {name!r} in the observation; give the objective's "

@@ -8,8 +8,8 @@ A spec is a dict (from JSON, YAML, or a Python file defining ``SPEC``)::
      "steps": 100000, "config": {"num_envs": 64}, "options": {"num_skills": 4}}
 
 ``agent`` (multi-agent envs) pays the objective to that agent only (``blx train --agent``).
-Lists at the top level (``env``, ``objective``, ``steps``, ``agent``) or inside ``config`` / ``options`` /
-``env_params`` are grid axes; ``seeds`` is vmapped inside each run. A setting whose value is
+Lists at the top level (``env``, ``objective``, ``steps``, ``agent``) or inside ``config`` /
+``options`` / ``env_params`` are grid axes; ``seeds`` is vmapped inside each run. A setting whose value is
 itself a list is a one-point axis: ``"policy_hidden": [[64, 64]]``.
 """
 
@@ -121,12 +121,13 @@ def _fmt(v: Any) -> str:
 
 def _check_same_point(name: str, directory: str, run_spec: runs.RunSpec, desc: dict) -> None:
   """A point's directory is reused only for the same definition: env (its full desc, so a change
-  of the library's bodies counts), objective and options, PPO config and steps, seeds."""
+  of the library's bodies counts), objective and options, PPO config and steps, seeds, agent."""
   old = runs.read_spec(directory)
   pairs = {"env": (old.env, run_spec.env), "objective": (old.objective, run_spec.objective),
            "options": (old.objective_options, run_spec.objective_options),
            "config": (old.ppo, run_spec.ppo), "seeds": (list(old.seeds), list(run_spec.seeds)),
-           "env_params": (old.env_params, run_spec.env_params), "desc": (old.desc, desc)}
+           "env_params": (old.env_params, run_spec.env_params),
+           "agent": (old.agent, run_spec.agent), "desc": (old.desc, desc)}
   changed = [key for key, (a, b) in pairs.items() if runs.as_json(a) != runs.as_json(b)]
   if changed:
     detail = "; ".join(f"{k}: {runs.as_json(pairs[k][0])!r} -> {runs.as_json(pairs[k][1])!r}"

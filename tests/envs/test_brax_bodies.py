@@ -298,7 +298,8 @@ def test_octopus_arms_fan_out_flat_every_45_degrees():
     reach = tip[:2] - root[:2]
     # arm 0 points along +y; arm i is turned 45 i degrees about z
     angle = np.degrees(np.arctan2(reach[1], reach[0]))
-    assert (angle - (90.0 + 45.0 * i) + 180.0) % 360.0 - 180.0 == pytest.approx(0.0, abs=1e-3)  # MJCF's printed digits
+    off = (angle - (90.0 + 45.0 * i) + 180.0) % 360.0 - 180.0
+    assert off == pytest.approx(0.0, abs=1e-3)  # MJCF's printed digits
     assert np.linalg.norm(reach) == pytest.approx(0.037 + 2 * 0.074, abs=1e-6)
     assert tip[2] == pytest.approx(root[2] + 0.015, abs=1e-6)  # flat, at the arms' height
 

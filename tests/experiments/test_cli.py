@@ -390,3 +390,16 @@ def test_a_sweep_spec_can_name_the_agent_or_sweep_over_agents():
                                                       ("agent=agent1", "agent1")]
   (name, one), = sweep.expand(dict(spec, agent="agent1"))
   assert one.agent == "agent1"
+
+
+def test_a_sweep_point_run_for_another_agent_is_not_reused(tmp_path):
+  import dataclasses
+  from blx.experiments import runs, sweep
+  from tests.conftest import make_env
+  spec = runs.RunSpec(env="chase", objective="diayn", objective_options={}, ppo={},
+                      env_params={"main_agent": "point", "other_agent": "point"}, agent="agent0")
+  env = make_env("chase", main_agent="point", other_agent="point")
+  runs.write_config(str(tmp_path), spec, env)
+  sweep._check_same_point("p", str(tmp_path), spec, env.desc)  # the same point: reused
+  with pytest.raises(runs.RunError, match="agent: 'agent0' -> 'agent1'"):
+    sweep._check_same_point("p", str(tmp_path), dataclasses.replace(spec, agent="agent1"), env.desc)

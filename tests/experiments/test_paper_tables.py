@@ -67,5 +67,6 @@ def test_welch_matches_scipy_with_both_stds_as_sample_stds():
   mean, std, n = 1.5, 0.2, 10  # the paper's std is over its n seeds (population)
   t, _, p = paper_tables.welch(values, mean, std, n)
   ref = stats.ttest_ind_from_stats(
-      sum(values) / 4, stats.tstd(values), 4, mean, std * math.sqrt(n / (n - 1)), n, equal_var=False)
+      sum(values) / 4, stats.tstd(values), 4, mean, std * math.sqrt(n / (n - 1)), n,
+      equal_var=False)
   assert t == pytest.approx(ref.statistic) and p == pytest.approx(ref.pvalue)
