@@ -158,6 +158,12 @@ def ant_chase(goal_scale: float = 1.0):
 # Multi-agent scenes (Braxlines' ``follow``, ``chase`` and ``sumo``): agents ``agent0`` ..
 # ``agent<n-1>`` on a circle of radius ``init_r``, every pair observing its xy root offset.
 
+# ``agent_collide`` (every scene): which colliders of two agents meet, as the original's edge
+# ``collide_type``: "full" (the original's default: every collider pair, 25 for two ants), "root"
+# (the two roots only) or "none" (agents pass through each other). Fewer pairs make the physics
+# cheaper (two ants on the CPU: 4.9 ms per 64-world step with "full", 3.2 ms with "none"); "full"
+# is the original. A sumo without contacts cannot push.
+AGENT_COLLIDE = {"full": "full", "root": "root", "none": None}
 MAX_DIST = 20.0   # the original's distance at which a chase or follow episode ends
 MIN_DIST = 0.5    # ... and the distance at which a predator catches the prey
 MAX_AGENTS = 10   # agent0 .. agent9 sort as they are numbered
@@ -171,13 +177,16 @@ _SCENE_OPTIONS = {"ant": dict(ANT_OPTIONS, iterations=4),
 
 
 def _agents(where: str, main_agent: str, other_agent: str, num_agents: int, main_agent_params,
-            other_agent_params, init_r: float) -> dict:
+            other_agent_params, init_r: float, agent_collide: str = "full") -> dict:
   if isinstance(num_agents, bool) or not isinstance(num_agents, int) or not (
       2 <= num_agents <= MAX_AGENTS):
     raise ValueError(f"{where}: num_agents must be an int in 2..{MAX_AGENTS}, got {num_agents!r}")
   if not isinstance(init_r, (int, float)) or isinstance(init_r, bool) or not (
       math.isfinite(init_r) and init_r > 0):
     raise ValueError(f"{where}: init_r must be a positive number, got {init_r!r}")
+  if agent_collide not in AGENT_COLLIDE:
+    raise ValueError(f"{where}: agent_collide={agent_collide!r}; valid values are "
+                     f"{list(AGENT_COLLIDE)}")
   components, edges = {}, {}
   for i in range(num_agents):
     angle = 2.0 * math.pi * i / num_agents
@@ -189,6 +198,7 @@ def _agents(where: str, main_agent: str, other_agent: str, num_agents: int, main
     components[f"agent{i}"] = comp
     for j in range(i):
       edges[f"agent{j}__agent{i}"] = dict(
+          collide_type=AGENT_COLLIDE[agent_collide],
           extra_observers=[dict(observer_type="root_vec", indices=(0, 1))])
   desc = dict(components=components, edges=edges,
               agent_groups={a: dict(reward_names=()) for a in components})
@@ -203,11 +213,12 @@ def _claim(desc: dict, agent: str, *terms: str) -> None:
 
 def follow(leader_vel: float = 3.0, num_agents: int = 2, main_agent: str = "ant",
            other_agent: str = "ant", main_agent_params: dict | None = None,
-           other_agent_params: dict | None = None, init_r: float = 2.0):
+           other_agent_params: dict | None = None, init_r: float = 2.0,
+           agent_collide: str = "full"):
   """agent0 leads, running at (leader_vel, 0) m/s (r = leader_vel + 2 - ||v_xy - target||); every
   other agent follows it (r = 21 - ||p - p_leader||; the episode ends beyond 20 m)."""
   desc = _agents("follow", main_agent, other_agent, num_agents, main_agent_params,
-                 other_agent_params, init_r)
+                 other_agent_params, init_r, agent_collide)
   desc["components"]["agent0"]["reward_fns"] = dict(goal=dict(
       reward_type="root_goal", sdcomp="vel", indices=(0, 1), target_goal=(leader_vel, 0.0),
       offset=leader_vel + 2.0))
@@ -222,13 +233,13 @@ def follow(leader_vel: float = 3.0, num_agents: int = 2, main_agent: str = "ant"
 
 def chase(num_agents: int = 2, main_agent: str = "ant", other_agent: str = "ant",
           main_agent_params: dict | None = None, other_agent_params: dict | None = None,
-          init_r: float = 2.0):
+          init_r: float = 2.0, agent_collide: str = "full"):
   """agent0 is the prey, the others are predators. A predator earns 21 - distance and a 20,000
   bonus for a catch (within 0.5 m, which ends the episode); the prey earns its distance from each
   predator and 20,000 for getting 20 m away (which ends it too). Every agent also earns its planar
   speed."""
   desc = _agents("chase", main_agent, other_agent, num_agents, main_agent_params,
-                 other_agent_params, init_r)
+                 other_agent_params, init_r, agent_collide)
   for i in range(1, num_agents):
     edge = f"agent0__agent{i}"
     desc["edges"][edge]["reward_fns"] = dict(
@@ -265,7 +276,8 @@ def sumo(centering_scale: float = 1.0, control_scale: float = 0.1, draw_scale: f
          knocking_scale: float = 1.0, opp_scale: float = 1.0, ring_size: float = 3.0,
          win_bonus: float = 1.0, num_agents: int = 2, main_agent: str = "ant",
          other_agent: str = "ant", main_agent_params: dict | None = None,
-         other_agent_params: dict | None = None, init_r: float = 2.0):
+         other_agent_params: dict | None = None, init_r: float = 2.0,
+         agent_collide: str = "full"):
   """agent0 (the yokozuna) against the others (komusubis) in a ring of radius ``ring_size``.
 
   For each pair: pushing the opponent out pays ``win_bonus`` and ends the episode (before that,
@@ -278,7 +290,7 @@ def sumo(centering_scale: float = 1.0, control_scale: float = 0.1, draw_scale: f
       math.isfinite(ring_size) and ring_size > 0):
     raise ValueError(f"sumo: ring_size must be a positive number, got {ring_size!r}")
   desc = _agents("sumo", main_agent, other_agent, num_agents, main_agent_params,
-                 other_agent_params, init_r)
+                 other_agent_params, init_r, agent_collide)
 
   def out_of_ring(of, scale, bonus):
     return dict(reward_type="exp_norm", of=of, sdcomp="pos", indices=(0, 1), max_dist=ring_size,

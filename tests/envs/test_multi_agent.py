@@ -204,3 +204,24 @@ def test_bad_scene_parameters_are_named():
     envs.create("sumo", ring_size=-1.0)
   with pytest.raises(ValueError, match=r"follow: init_r must be a positive number"):
     envs.create("follow", init_r=0.0)
+
+
+@pytest.mark.parametrize("name", ["follow", "chase", "sumo"])
+def test_agent_collide_chooses_which_colliders_of_two_agents_meet(name):
+  import mujoco
+
+  def agent_pairs(env):
+    m = envs.unwrap(env).mj_model
+    names = [(mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_GEOM, int(a)),
+              mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_GEOM, int(b)))
+             for a, b in zip(m.pair_geom1, m.pair_geom2)]
+    return {p for p in names if {p[0].split("/")[0], p[1].split("/")[0]} == {"agent0", "agent1"}}
+
+  full = agent_pairs(envs.create(name))  # the original's: each ant's torso and four feet
+  assert len(full) == 25
+  (root,) = agent_pairs(envs.create(name, agent_collide="root"))
+  assert set(root) == {"agent0/torso_geom", "agent1/torso_geom"}
+  assert agent_pairs(envs.create(name, agent_collide="none")) == set()
+  with pytest.raises(ValueError, match=r"agent_collide='all'; valid values are \['full', 'root', "
+                                       r"'none'\]"):
+    envs.create(name, agent_collide="all")
