@@ -74,11 +74,11 @@ LABELS = {"eval/mi": "MI(s, z)", "eval/entropy": "H(s)",
           "eval/episode_env_reward": "episode env reward"}
 
 
-def spec(study: Study, env: str, seeds: int, steps: int | None = None, values=None) -> dict:
+def spec(study: Study, env: str, seeds: int, steps: int | None = None) -> dict:
   """One sweep over the study's objectives x values, on the settings of the paper's row."""
   base = paper_tables.specs(seeds, steps=steps, env=env)[study.family]
   options = dict(base["options"])
-  options[study.option] = list(values if values is not None else study.values)
+  options[study.option] = list(study.values)
   return dict(base, name=f"ablation_{study.option}_{env}", objective=list(study.objectives),
               options=options)
 
@@ -104,19 +104,18 @@ def compare(arms: dict[str, dict], metrics: tuple[str, ...]) -> list[str]:
   from scipy import stats
   rows = ["| arm | metric | mean ± std (seeds) | Welch t vs first | p |",
           "| --- | --- | ---: | ---: | ---: |"]
-  first: dict[str, dict] = {}
+  first: dict[str, str] = {}  # objective -> its first arm
   for name, result in arms.items():
-    first.setdefault(result["objective"], result)
+    reference = first.setdefault(result["objective"], name)
     for key in metrics:
       values = result["per_seed"].get(key)
       if not values:
         continue
       n = len(values)
-      mean = sum(values) / n
-      std = math.sqrt(sum((v - mean) ** 2 for v in values) / n)
-      ref = first[result["objective"]]["per_seed"].get(key)
+      mean, std = paper_tables.mean_std(values)
+      ref = arms[reference]["per_seed"].get(key)
       t, p = "", ""
-      if ref and ref is not values and n > 1 and len(ref) > 1:
+      if name != reference and ref and n > 1 and len(ref) > 1:
         test = stats.ttest_ind(values, ref, equal_var=False)
         t, p = f"{test.statistic:+.2f}", f"{test.pvalue:.3f}"
       rows.append(f"| {name} | {key} | {mean:.3f} ± {std:.3f} ({n}) | {t} | {p} |")

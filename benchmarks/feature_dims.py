@@ -25,7 +25,8 @@ import numpy as np
 
 def scan(env: Any, objective: Any, policy: Callable, params: Any, dims, key: jax.Array, *,
          episodes_per_latent: int = 10, last_steps: int = 500, bins: int = 1000) -> dict:
-  """``{"mi": [D], "entropy": [D]}`` of observation dims ``dims`` for one policy (one seed)."""
+  """``{"mi": [D], "entropy": [D]}`` of observation dims ``dims`` for one policy (one seed); pure,
+  so it runs under ``jax.jit``."""
   from blx.metrics import evaluate, particle
   dims = np.asarray(dims)
   z_key, roll_key = jax.random.split(key)
@@ -38,7 +39,7 @@ def scan(env: Any, objective: Any, policy: Callable, params: Any, dims, key: jax
   scale = objective.spec.obs_scale
   out = particle.mutual_information(states.reshape(-1, len(dims)), labels, bins=bins,
                                     value_range=(-scale, scale), num_labels=num)
-  return {"mi": np.asarray(out["mi"]), "entropy": np.asarray(out["entropy"])}
+  return {"mi": out["mi"], "entropy": out["entropy"]}
 
 
 def scan_run(directory: str, dims, seed: int = 0) -> dict:
@@ -82,9 +83,10 @@ def main():
   parser.add_argument("--dims", type=int, default=30, help="the first N observation dimensions")
   parser.add_argument("--out", default="feature_dims.png")
   args = parser.parse_args()
+  from blx import envs
   from blx.experiments import runs
-  first = runs.load_run(args.runs[0], need_checkpoint=False)
-  size = first.env.observation_size
+  env, _, _ = runs.build(runs.read_spec(args.runs[0]))
+  size = envs.unwrap(env).observation_size
   if not 1 <= args.dims <= size:
     parser.error(f"--dims {args.dims}: the observation has {size} dimensions")
   dims = list(range(args.dims))

@@ -100,6 +100,12 @@ def welch(values: list[float], mean: float, std: float, n: int = PAPER_SEEDS):
   return t, dof, 2 * stats.t.sf(abs(t), dof)
 
 
+def mean_std(values: list[float]) -> tuple[float, float]:
+  """Mean and population std, as the paper reports over its seeds."""
+  mu = sum(values) / len(values)
+  return mu, math.sqrt(sum((v - mu) ** 2 for v in values) / len(values))
+
+
 def verdicts(eval_json: dict) -> list[str]:
   """Markdown rows: metric, blx mean ± std (n), paper, Welch t and p, and whether blx reaches the
   paper's mean - std."""
@@ -110,8 +116,7 @@ def verdicts(eval_json: dict) -> list[str]:
     values = [sign * v for v in eval_json["per_seed"].get(key.lstrip("-"), [])]
     if not values:
       continue
-    mu = sum(values) / len(values)
-    sd = math.sqrt(sum((v - mu) ** 2 for v in values) / len(values))
+    mu, sd = mean_std(values)
     t, dof, p = welch(values, mean, std)
     ok = "yes" if mu >= mean - std else "**no**"
     lines.append(f"| {env} | {name} | {key} | {mu:.3f} ± {sd:.3f} ({len(values)}) "
@@ -141,7 +146,8 @@ def specs(seeds: int, edits: dict | None = None, config: dict | None = None,
   """The sweep specs of ``env``'s rows: ``{"gcrl" | "mimax" | "dmin": spec}``."""
   if env not in PAPER:
     raise ValueError(f"env {env!r}: the paper's tables have {list(ENVS)}")
-  common = dict(env=env, seeds=list(range(seeds)), steps=steps or paper_steps(env),
+  common = dict(env=env, seeds=list(range(seeds)),
+                steps=paper_steps(env) if steps is None else steps,
                 env_params=dict(edits=edits) if edits else {}, config=dict(config or {}))
   over = dict(options or {})
   return {

@@ -102,7 +102,7 @@ def build(spec: RunSpec):
   objective = objectives.make(spec.objective, **options)
   if agent is not None:
     objective = objectives.for_agent(objective, agent=agent,
-                                     num_agents=len(envs.unwrap(env).agent_names))
+                                     num_agents=envs.unwrap(env).num_agents)
   config = training.ppo_defaults(spec.env).replace(**spec.ppo)
   return env, objective, config
 

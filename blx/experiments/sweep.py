@@ -9,8 +9,8 @@ A spec is a dict (from JSON, YAML, or a Python file defining ``SPEC``)::
 
 ``agent`` (multi-agent envs) pays the objective to that agent only (``blx train --agent``).
 Lists at the top level (``env``, ``objective``, ``steps``, ``agent``) or inside ``config`` /
-``options`` / ``env_params`` are grid axes; ``seeds`` is vmapped inside each run. A setting whose value is
-itself a list is a one-point axis: ``"policy_hidden": [[64, 64]]``.
+``options`` / ``env_params`` are grid axes; ``seeds`` is vmapped inside each run. A setting whose
+value is itself a list is a one-point axis: ``"policy_hidden": [[64, 64]]``.
 """
 
 from __future__ import annotations

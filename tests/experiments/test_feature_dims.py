@@ -27,8 +27,9 @@ def _split_on_x(params, obs, z, key=None, deterministic=False):
 def test_scan_finds_the_skill_in_the_dimension_the_policy_uses_and_none_elsewhere(tmp_path):
   env = make_env("point")  # observation: x, y, vx, vy
   objective = objectives.make("diayn", num_skills=2, obs_indices="pos_xy", env=env)
-  r = feature_dims.scan(env, objective, _split_on_x, None, [0, 1, 2, 3], jax.random.PRNGKey(0),
-                        last_steps=25)
+  scan = jax.jit(lambda key: feature_dims.scan(env, objective, _split_on_x, None, [0, 1, 2, 3], key,
+                                                last_steps=25))  # as scan_run runs it
+  r = jax.device_get(scan(jax.random.PRNGKey(0)))
   # x velocity: the two skills never share a bin, so MI = H(s) = log 2 (two equal skills).
   assert r["mi"][2] == np.float32(math.log(2)) and r["entropy"][2] == np.float32(math.log(2))
   # y and its velocity stay 0 for both skills: no information and no spread.
