@@ -4,7 +4,7 @@
                                       [--only gcrl|mimax|dmin] [--objective diayn] [--collect]
                                       [--out sweeps/paper_ENV] [--env-edits JSON] [--config JSON]
                                       [--options JSON] [--steps N] [--eval-metrics]
-    python benchmarks/paper_tables.py --compare DIR   # every DIR/**/eval.json against the paper
+    python benchmarks/paper_tables.py --compare DIR [DIR ...]   # every eval.json against the paper
 
 ``--objective`` trains only that algorithm's point (one process per GPU:
 ``CUDA_VISIBLE_DEVICES=i python benchmarks/paper_tables.py --objective NAME &`` for each), and
@@ -12,7 +12,10 @@
 (dotted paths into the env's desc, e.g. ``'{"global_options.iterations": 4}'``), ``--config`` (PPO
 settings over the env's row), ``--options`` (objective options over the row's, e.g.
 ``'{"target_seed": 3}'``) and ``--steps`` are for ablations: a row trained with any of them is not
-the paper's protocol. ``--eval-metrics`` also logs the paper's metrics at every evaluation during
+the paper's protocol. ``--first-seed N`` trains seeds N .. N + seeds - 1, so that one row's seeds
+can be split over processes or device calls; ``--compare DIR1 DIR2`` then merges the ``eval.json``
+files found at the same path under each directory into one row (their seeds must not overlap).
+``--eval-metrics`` also logs the paper's metrics at every evaluation during
 training (e.g. D-min's mode shares), at the cost of a quick evaluation each time.
 
 MI-max: gcrl, diayn, cdiayn, diayn_full on the env's "vel" indices (Ant and Humanoid: xy velocity;
@@ -88,9 +91,12 @@ PAPER_SEEDS = 10
 
 def welch(values: list[float], mean: float, std: float, n: int = PAPER_SEEDS):
   """Welch's t-test of ``values`` against a sample of ``n`` with ``mean`` and (population) ``std``:
-  ``(t, degrees of freedom, two-sided p)``. Both stds are made sample stds (ddof 1) first."""
+  ``(t, degrees of freedom, two-sided p)``. Both stds are made sample stds (ddof 1) first. One
+  value has no sample std, so there is no test: ``ValueError``."""
   from scipy import stats
   m = len(values)
+  if m < 2:
+    raise ValueError(f"welch: {m} value(s); the test needs at least 2 seeds")
   mu = sum(values) / m
   var = sum((v - mu) ** 2 for v in values) / (m - 1)
   var_p = std**2 * n / (n - 1)
@@ -117,22 +123,48 @@ def verdicts(eval_json: dict) -> list[str]:
     if not values:
       continue
     mu, sd = mean_std(values)
-    t, dof, p = welch(values, mean, std)
     ok = "yes" if mu >= mean - std else "**no**"
+    if len(values) > 1:
+      t, _, p = welch(values, mean, std)
+      test = f"{t:+.2f} | {p:.3f}"
+    else:
+      test = "n/a (1 seed) | n/a"
     lines.append(f"| {env} | {name} | {key} | {mu:.3f} ± {sd:.3f} ({len(values)}) "
-                 f"| {mean:.3f} ± {std:.3f} "
-                 f"| {t:+.2f} | {p:.3f} | {ok} |")
+                 f"| {mean:.3f} ± {std:.3f} | {test} | {ok} |")
   return lines
 
 
-def compare(directory: str) -> str:
-  """The verdict table for every ``eval.json`` under ``directory``."""
+def merge(evals: list[dict]) -> dict:
+  """One evaluation of a row whose seeds ran in several programs: per-seed values concatenated in
+  seed order. The parts must be of one env and algorithm and share no seed."""
+  first = evals[0]
+  for other in evals[1:]:
+    if (other["objective"], other.get("env")) != (first["objective"], first.get("env")):
+      raise ValueError(f"merge: {other['objective']} on {other.get('env')} is not the row of "
+                       f"{first['objective']} on {first.get('env')}")
+  seeds = [s for e in evals for s in e["seeds"]]
+  if len(set(seeds)) != len(seeds):
+    raise ValueError(f"merge: seeds {sorted(seeds)} overlap; each part must train other seeds")
+  keys = set.intersection(*(set(e["per_seed"]) for e in evals))
+  order = sorted(range(len(seeds)), key=seeds.__getitem__)
+  per_seed = {k: [v for e in evals for v in e["per_seed"][k]] for k in keys}
+  return dict(first, seeds=sorted(seeds),
+              per_seed={k: [v[i] for i in order] for k, v in per_seed.items()})
+
+
+def compare(*directories: str) -> str:
+  """The verdict table for every ``eval.json`` under the directories; files at the same path under
+  several directories are parts of one row (``merge``)."""
   rows = ["| env | algorithm | metric | blx (seeds) | paper (10) | Welch t | p "
           "| >= paper mean - std |",
           "| --- | --- | --- | ---: | ---: | ---: | ---: | --- |"]
-  for path in sorted(glob.glob(os.path.join(directory, "**", "*eval.json"), recursive=True)):
-    with open(path) as f:
-      rows += verdicts(json.load(f))
+  parts: dict[str, list[dict]] = {}
+  for directory in directories:
+    for path in glob.glob(os.path.join(directory, "**", "*eval.json"), recursive=True):
+      with open(path) as f:
+        parts.setdefault(os.path.relpath(path, directory), []).append(json.load(f))
+  for rel in sorted(parts):
+    rows += verdicts(merge(parts[rel]))
   return "\n".join(rows)
 
 
@@ -142,11 +174,12 @@ def paper_steps(env: str) -> int:
 
 
 def specs(seeds: int, edits: dict | None = None, config: dict | None = None,
-          steps: int | None = None, options: dict | None = None, env: str = "ant") -> dict:
+          steps: int | None = None, options: dict | None = None, env: str = "ant",
+          first_seed: int = 0) -> dict:
   """The sweep specs of ``env``'s rows: ``{"gcrl" | "mimax" | "dmin": spec}``."""
   if env not in PAPER:
     raise ValueError(f"env {env!r}: the paper's tables have {list(ENVS)}")
-  common = dict(env=env, seeds=list(range(seeds)),
+  common = dict(env=env, seeds=list(range(first_seed, first_seed + seeds)),
                 steps=paper_steps(env) if steps is None else steps,
                 env_params=dict(edits=edits) if edits else {}, config=dict(config or {}))
   over = dict(options or {})
@@ -166,6 +199,8 @@ def main():
   parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
   parser.add_argument("--env", choices=ENVS, default="ant")
   parser.add_argument("--seeds", type=int, default=10)
+  parser.add_argument("--first-seed", type=int, default=0,
+                      help="train seeds FIRST .. FIRST + seeds - 1 (a row split over programs)")
   parser.add_argument("--only", choices=["gcrl", "mimax", "dmin"], default=None)
   parser.add_argument("--objective", default=None, help="train only this algorithm's point")
   parser.add_argument("--collect", action="store_true", help="only gather evaluated points")
@@ -184,13 +219,16 @@ def main():
                            "only for a diagnosis)")
   parser.add_argument("--eval-metrics", action="store_true",
                       help="log the paper's metrics at every evaluation during training")
-  parser.add_argument("--compare", default=None, metavar="DIR",
-                      help="only print the verdicts for the eval.json files under DIR")
+  parser.add_argument("--compare", nargs="+", default=None, metavar="DIR",
+                      help="only print the verdicts for the eval.json files under DIR; files at "
+                           "the same path under several DIRs are one row's parts")
   args = parser.parse_args()
   if args.compare:
-    print(compare(args.compare))
+    print(compare(*args.compare))
     return
   known = [o for spec in specs(1).values() for o in spec["objective"]]
+  if args.first_seed < 0:
+    parser.error(f"--first-seed {args.first_seed}: must be >= 0")
   if args.objective and args.objective not in known:
     parser.error(f"--objective {args.objective!r}: valid ones are {known}")
   select = None
@@ -202,7 +240,8 @@ def main():
   edits = json.loads(args.env_edits) if args.env_edits else None
   config = json.loads(args.config) if args.config else None
   options = json.loads(args.options) if args.options else None
-  for family, spec in specs(args.seeds, edits, config, args.steps, options, args.env).items():
+  for family, spec in specs(args.seeds, edits, config, args.steps, options, args.env,
+                              args.first_seed).items():
     if args.only and family != args.only:
       continue
     if args.objective and args.objective not in spec["objective"]:

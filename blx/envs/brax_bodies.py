@@ -71,7 +71,10 @@ ANT_STRENGTH = 300.0      # Brax motor strength (v0.0.6 stock ant)
 PRO_ANT_STRENGTH = 350.0  # Braxlines' procedural ant
 ANT_LIMIT = (0.01, 1.0)   # solreflimit: 100 rad/s (Brax's limit_strength 5000 on inertia-1 links), damped
 _UNIT = dict(diaginertia=(1.0, 1.0, 1.0))
-# Brax's ant steps 0.05 s as 10 substeps of 5 ms; the registered ant envs do the same.
+# Brax's ant steps 0.05 s as 10 substeps of 5 ms; the registered ant envs do the same. The Newton
+# solve keeps MJX's one iteration: the ant's paper rows meet the paper with it, except GCRL.
+# GCRL's MI was higher with ``iterations=4`` on both seeds tried (benchmarks/RESULTS.md, session 11),
+# at about 2.6x the cost per env step, so four iterations are an env edit, not the default.
 ANT_OPTIONS = dict(timestep=0.005, substeps=10)
 # Half the physics per control step; slows the ant's fastest gaits (see the module docstring).
 ANT_FAST_OPTIONS = dict(timestep=0.01, substeps=5)

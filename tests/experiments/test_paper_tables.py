@@ -2,6 +2,7 @@
 verdicts that compare blx with them."""
 
 import importlib.util
+import json
 import math
 import pathlib
 
@@ -70,3 +71,38 @@ def test_welch_matches_scipy_with_both_stds_as_sample_stds():
       sum(values) / 4, stats.tstd(values), 4, mean, std * math.sqrt(n / (n - 1)), n,
       equal_var=False)
   assert t == pytest.approx(ref.statistic) and p == pytest.approx(ref.pvalue)
+
+
+def test_a_row_split_over_programs_trains_disjoint_seeds_and_merges_into_one_row(tmp_path):
+  first = paper_tables.specs(4, env="ant")["dmin"]
+  rest = paper_tables.specs(6, env="ant", first_seed=4)["dmin"]
+  assert first["seeds"] == [0, 1, 2, 3] and rest["seeds"] == [4, 5, 6, 7, 8, 9]
+  # Two programs' eval.json at the same path: one 10-seed row, values in seed order.
+  for name, seeds in (("a", [4, 5, 6, 7, 8, 9]), ("b", [0, 1, 2, 3])):
+    run = tmp_path / name / "dmin" / "mle"
+    run.mkdir(parents=True)
+    values = [0.1 * s for s in seeds]
+    (run / "eval.json").write_text(json.dumps(
+        {"objective": "mle", "env": "ant", "seeds": seeds,
+         "per_seed": {"eval/energy_distance": values}}))
+  table = paper_tables.compare(str(tmp_path / "a"), str(tmp_path / "b"))
+  (row,) = [r for r in table.splitlines() if "| mle |" in r]
+  assert "-0.450 ± 0.287 (10)" in row  # mean of 0.0 .. 0.9, population std
+  merged = paper_tables.merge([
+      {"objective": "mle", "seeds": [2, 0], "per_seed": {"x": [2.0, 0.0]}},
+      {"objective": "mle", "seeds": [1], "per_seed": {"x": [1.0]}}])
+  assert merged["seeds"] == [0, 1, 2] and merged["per_seed"]["x"] == [0.0, 1.0, 2.0]
+  with pytest.raises(ValueError, match="overlap"):
+    paper_tables.merge([{"objective": "mle", "seeds": [0, 1], "per_seed": {}},
+                        {"objective": "mle", "seeds": [1], "per_seed": {}}])
+  with pytest.raises(ValueError, match="not the row"):
+    paper_tables.merge([{"objective": "mle", "seeds": [0], "per_seed": {}},
+                        {"objective": "gail", "seeds": [1], "per_seed": {}}])
+
+
+def test_a_single_seed_gets_its_row_without_a_test():
+  run = {"objective": "gcrl", "env": "ant", "per_seed": {"eval/mi": [0.556]}}
+  (row,) = [r for r in paper_tables.verdicts(run) if "eval/mi" in r]
+  assert "0.556 ± 0.000 (1)" in row and "n/a (1 seed)" in row and row.endswith("| **no** |")
+  with pytest.raises(ValueError, match="at least 2"):
+    paper_tables.welch([0.556], 1.218, 0.192)
