@@ -12,6 +12,13 @@
 # calls that each end by copying what has finished to $OUT, e.g.
 #   tar czf $OUT/res.tgz --exclude='checkpoint*' -C $LOG_DIR .
 # so that a machine handed back between two polls loses nothing that had finished.
+#
+# A machine can be handed back between any two calls, and a call lasts at most 600 s. A run longer
+# than one call therefore goes as a chain of calls: train with PPOConfig checkpoint_env_state=False
+# (e.g. paper_tables.py --config '{"checkpoint_env_state": false}'), end each call by copying the
+# run directory to $OUT (the checkpoint cut with `split -b 15m`, as a file may be at most 16 MiB),
+# and start the next call by restoring it and giving the same command: sweeps, paper_tables.py and
+# `blx train --resume DIR` continue from the checkpoint. Each resume starts the envs on new episodes.
 set -u
 if [ $# -eq 0 ]; then
   echo "usage: DEADLINE_S=560 bash benchmarks/on_gpus.sh \"queue of GPU 0\" [\"queue of GPU 1\" ...]" >&2

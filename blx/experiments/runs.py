@@ -211,7 +211,7 @@ def load_run(directory: str, *, need_checkpoint: bool = True) -> Run:
     keys = jax.numpy.stack([jax.random.PRNGKey(s) for s in spec.seeds])
     like = jax.eval_shape(jax.vmap(trainer.init), keys)
     try:
-      state, meta = checkpoint.restore(ckpt, like)
+      state, meta = training.restore_state(ckpt, like)
     except checkpoint.CheckpointError as e:  # damaged, or written by another config: it says which
       raise RunError(f"{ckpt}: {e}") from None
     except Exception as e:  # a checkpoint from another version

@@ -93,13 +93,14 @@ def train(env: Any, objective: Objective, config: PPOConfig, *, seeds: Sequence[
   meta_base = {"seeds": seeds, "config": dataclasses.asdict(config), "objective": objective.name,
                "num_chunks": trainer.num_chunks}
   if resume and checkpoint_dir and checkpoint.exists(checkpoint_dir):
-    like = jax.eval_shape(init_fn, init_keys)
-    state, meta = checkpoint.restore(checkpoint_dir, like)
+    state, meta = restore_state(checkpoint_dir, jax.eval_shape(init_fn, init_keys))
     for key in ("seeds", "config", "objective"):
       if _jsonable(meta.get(key)) != _jsonable(meta_base[key]):
         raise ValueError(f"resume: the checkpoint in {checkpoint_dir} was written with a different "
                          f"{key} ({meta.get(key)!r}); start a new run or use the same {key}")
     start_chunk, history = int(meta["chunk"]), list(meta.get("history", []))
+    if state.env_state is None:  # written with checkpoint_env_state=False: every env starts anew
+      state = state.replace(env_state=init_fn(init_keys).env_state)
   else:
     state = init_fn(init_keys)
 
@@ -151,8 +152,10 @@ def train(env: Any, objective: Objective, config: PPOConfig, *, seeds: Sequence[
       row.update({k: np.asarray(v).tolist() for k, v in evals.items()})
       history.append(row)
       if checkpoint_dir:
-        checkpoint.save(checkpoint_dir, state, {**meta_base, "chunk": chunk + 1,
-                                                "history": history})
+        saved = state if config.checkpoint_env_state else state.replace(env_state=None)
+        checkpoint.save(checkpoint_dir, saved, {**meta_base, "chunk": chunk + 1,
+                                                "history": history,
+                                                "env_state": config.checkpoint_env_state})
       if report:
         report(row)
   except KeyboardInterrupt:
@@ -164,6 +167,15 @@ def train(env: Any, objective: Objective, config: PPOConfig, *, seeds: Sequence[
     raise
 
   return TrainResult(params=policy_params(state), metrics=history, policy=trainer.policy, state=state)
+
+
+def restore_state(directory: str, like: TrainState) -> tuple[TrainState, dict]:
+  """The training state in the checkpoint in ``directory``, in the structure of ``like`` (shapes of
+  the vmapped ``TrainState``), and its metadata. Its ``env_state`` is None where the checkpoint was
+  written without it (``PPOConfig.checkpoint_env_state=False``)."""
+  if not checkpoint.read_meta(directory).get("env_state", True):
+    like = like.replace(env_state=None)
+  return checkpoint.restore(directory, like)
 
 
 def _jsonable(x):

@@ -280,3 +280,48 @@ def test_staggered_starts_spread_the_episode_ends_and_keep_each_episode_whole():
       np.testing.assert_array_equal(first_end, 20 - offsets)
     for row, end in zip(done, first_end):  # after the first end, whole 20-step episodes
       np.testing.assert_array_equal(np.flatnonzero(row), np.arange(end - 1, 60, 20))
+
+
+def test_a_checkpoint_without_env_state_is_smaller_and_a_run_resumes_from_it(tmp_path):
+  env = envs.create("point", episode_length=20)
+  config = SMALL.replace(num_evals=2)
+
+  def stop_after_first_chunk(row):
+    raise KeyboardInterrupt
+
+  paths = {}
+  for with_env in (True, False):
+    directory = str(tmp_path / f"ckpt_{with_env}")
+    with pytest.raises(KeyboardInterrupt):
+      training.train(env, reach_latent(), config.replace(checkpoint_env_state=with_env),
+                     progress=stop_after_first_chunk, checkpoint_dir=directory)
+    paths[with_env] = directory
+  meta = checkpoint.read_meta(paths[False])
+  assert meta["chunk"] == 1 and meta["env_state"] is False
+  with np.load(checkpoint.path(paths[False])) as f:
+    light = list(f.files)
+  with np.load(checkpoint.path(paths[True])) as f:
+    full = list(f.files)
+  assert not any("env_state" in k for k in light) and any("env_state" in k for k in full)
+  assert set(light) < set(full)
+  assert os.path.getsize(checkpoint.path(paths[False])) < os.path.getsize(checkpoint.path(paths[True]))
+
+  # Resuming restores everything saved and starts the envs anew: the run ends at the same step
+  # count as an uninterrupted one, keeps the first chunk's history and trained on from its params.
+  saved_policy = training.restore_state(paths[False], _like(env, config))[0].params
+  result = training.train(env, reach_latent(), config.replace(checkpoint_env_state=False),
+                          progress=False, checkpoint_dir=paths[False], resume=True)
+  assert checkpoint.read_meta(paths[False])["chunk"] == 2 and len(result.metrics) == 2
+  assert int(np.asarray(result.state.env_steps)[0]) == 2 * int(result.metrics[0]["env_steps"])
+  before = jax.tree.leaves(saved_policy)
+  after = jax.tree.leaves(result.state.params)
+  assert any(not np.array_equal(a, b) for a, b in zip(before, after))
+  assert all(np.isfinite(np.asarray(x)).all() for x in after)
+  # A light checkpoint in a full config's run: the checkpoint says what it holds.
+  state, _ = training.restore_state(paths[False], _like(env, config))
+  assert state.env_state is None and state.params is not None
+
+
+def _like(env, config):
+  trainer = training.make_trainer(env, reach_latent(), config)
+  return jax.eval_shape(jax.vmap(trainer.init), jnp.stack([jax.random.PRNGKey(0)]))
