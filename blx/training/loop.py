@@ -94,6 +94,8 @@ def train(env: Any, objective: Objective, config: PPOConfig, *, seeds: Sequence[
                "num_chunks": trainer.num_chunks}
   if resume and checkpoint_dir and checkpoint.exists(checkpoint_dir):
     state, meta = restore_state(checkpoint_dir, jax.eval_shape(init_fn, init_keys))
+    # A setting added after the checkpoint was written had its default's behaviour then.
+    meta = {**meta, "config": {**dataclasses.asdict(PPOConfig()), **(meta.get("config") or {})}}
     for key in ("seeds", "config", "objective"):
       if _jsonable(meta.get(key)) != _jsonable(meta_base[key]):
         raise ValueError(f"resume: the checkpoint in {checkpoint_dir} was written with a different "

@@ -325,3 +325,26 @@ def test_a_checkpoint_without_env_state_is_smaller_and_a_run_resumes_from_it(tmp
 def _like(env, config):
   trainer = training.make_trainer(env, reach_latent(), config)
   return jax.eval_shape(jax.vmap(trainer.init), jnp.stack([jax.random.PRNGKey(0)]))
+
+
+def test_a_checkpoint_from_before_a_setting_existed_resumes_with_its_default(tmp_path):
+  env = envs.create("point", episode_length=20)
+  config = SMALL.replace(num_evals=2)
+  directory = str(tmp_path / "ckpt")
+
+  def stop_after_first_chunk(row):
+    raise KeyboardInterrupt
+
+  with pytest.raises(KeyboardInterrupt):
+    training.train(env, reach_latent(), config, progress=stop_after_first_chunk,
+                   checkpoint_dir=directory)
+  state, meta = training.restore_state(directory, _like(env, config))
+  del meta["config"]["checkpoint_env_state"]  # as blx wrote it before the setting existed
+  checkpoint.save(directory, state, meta)
+  result = training.train(env, reach_latent(), config, progress=False, checkpoint_dir=directory,
+                          resume=True)
+  assert len(result.metrics) == 2
+  # A setting that differs from the checkpoint's is still refused.
+  with pytest.raises(ValueError, match="different config"):
+    training.train(env, reach_latent(), config.replace(checkpoint_env_state=False),
+                   progress=False, checkpoint_dir=directory, resume=True)
