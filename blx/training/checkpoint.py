@@ -117,7 +117,16 @@ def _open_legacy(directory: str) -> tuple[dict[str, np.ndarray], dict]:
 
 
 def read_meta(directory: str) -> dict:
-  return _open(directory)[1]
+  """The checkpoint's metadata, read without loading its arrays."""
+  file = path(directory)
+  if not os.path.exists(file):
+    return _open(directory)[1]  # legacy, or missing: _open says which
+  try:
+    with np.load(file) as data:
+      return json.loads(data[_META_KEY].tobytes().decode())
+  except (zipfile.BadZipFile, OSError, EOFError, KeyError, ValueError) as e:
+    raise CheckpointError(f"checkpoint {file} is damaged and cannot be read ({e}); delete it to "
+                          "start over") from None
 
 
 def restore(directory: str, like: Any) -> tuple[Any, dict]:
