@@ -82,6 +82,15 @@ def save(directory: str, tree: Any, meta: dict) -> None:
     pass
 
 
+# What reading a damaged (truncated, overwritten, foreign) checkpoint file raises.
+_UNREADABLE = (zipfile.BadZipFile, OSError, EOFError, KeyError, ValueError)
+
+
+def _damaged(file: str, e: Exception) -> CheckpointError:
+  return CheckpointError(f"checkpoint {file} is damaged and cannot be read ({e}); delete it to "
+                         "start over")
+
+
 def _open(directory: str) -> tuple[dict[str, np.ndarray], dict]:
   """All arrays and the metadata of the checkpoint in ``directory``."""
   if not os.path.exists(path(directory)) and _legacy(directory):
@@ -93,9 +102,8 @@ def _open(directory: str) -> tuple[dict[str, np.ndarray], dict]:
     meta = json.loads(arrays.pop(_META_KEY).tobytes().decode())
   except FileNotFoundError:
     raise CheckpointError(f"no checkpoint at {file}") from None
-  except (zipfile.BadZipFile, OSError, EOFError, KeyError, ValueError) as e:
-    raise CheckpointError(f"checkpoint {file} is damaged and cannot be read ({e}); delete it to "
-                          "start over") from None
+  except _UNREADABLE as e:
+    raise _damaged(file, e) from None
   return arrays, meta
 
 
@@ -124,9 +132,8 @@ def read_meta(directory: str) -> dict:
   try:
     with np.load(file) as data:
       return json.loads(data[_META_KEY].tobytes().decode())
-  except (zipfile.BadZipFile, OSError, EOFError, KeyError, ValueError) as e:
-    raise CheckpointError(f"checkpoint {file} is damaged and cannot be read ({e}); delete it to "
-                          "start over") from None
+  except _UNREADABLE as e:
+    raise _damaged(file, e) from None
 
 
 def restore(directory: str, like: Any) -> tuple[Any, dict]:

@@ -285,17 +285,10 @@ def test_staggered_starts_spread_the_episode_ends_and_keep_each_episode_whole():
 def test_a_checkpoint_without_env_state_is_smaller_and_a_run_resumes_from_it(tmp_path):
   env = envs.create("point", episode_length=20)
   config = SMALL.replace(num_evals=2)
-
-  def stop_after_first_chunk(row):
-    raise KeyboardInterrupt
-
   paths = {}
   for with_env in (True, False):
-    directory = str(tmp_path / f"ckpt_{with_env}")
-    with pytest.raises(KeyboardInterrupt):
-      training.train(env, reach_latent(), config.replace(checkpoint_env_state=with_env),
-                     progress=stop_after_first_chunk, checkpoint_dir=directory)
-    paths[with_env] = directory
+    paths[with_env] = str(tmp_path / f"ckpt_{with_env}")
+    _stop_after_first_chunk(env, config.replace(checkpoint_env_state=with_env), paths[with_env])
   meta = checkpoint.read_meta(paths[False])
   assert meta["chunk"] == 1 and meta["env_state"] is False
   with np.load(checkpoint.path(paths[False])) as f:
@@ -308,18 +301,26 @@ def test_a_checkpoint_without_env_state_is_smaller_and_a_run_resumes_from_it(tmp
 
   # Resuming restores everything saved and starts the envs anew: the run ends at the same step
   # count as an uninterrupted one, keeps the first chunk's history and trained on from its params.
-  saved_policy = training.restore_state(paths[False], _like(env, config))[0].params
+  # The checkpoint says what it holds, whatever the config of the run that reads it.
+  saved, _ = training.restore_state(paths[False], _like(env, config))
+  assert saved.env_state is None and saved.params is not None
   result = training.train(env, reach_latent(), config.replace(checkpoint_env_state=False),
                           progress=False, checkpoint_dir=paths[False], resume=True)
   assert checkpoint.read_meta(paths[False])["chunk"] == 2 and len(result.metrics) == 2
   assert int(np.asarray(result.state.env_steps)[0]) == 2 * int(result.metrics[0]["env_steps"])
-  before = jax.tree.leaves(saved_policy)
+  before = jax.tree.leaves(saved.params)
   after = jax.tree.leaves(result.state.params)
   assert any(not np.array_equal(a, b) for a, b in zip(before, after))
   assert all(np.isfinite(np.asarray(x)).all() for x in after)
-  # A light checkpoint in a full config's run: the checkpoint says what it holds.
-  state, _ = training.restore_state(paths[False], _like(env, config))
-  assert state.env_state is None and state.params is not None
+
+
+def _stop_after_first_chunk(env, config, directory):
+  """Trains until the first chunk's checkpoint is written, then interrupts as Ctrl-C would."""
+  def stop(row):
+    raise KeyboardInterrupt
+
+  with pytest.raises(KeyboardInterrupt):
+    training.train(env, reach_latent(), config, progress=stop, checkpoint_dir=directory)
 
 
 def _like(env, config):
@@ -331,13 +332,7 @@ def test_a_checkpoint_from_before_a_setting_existed_resumes_with_its_default(tmp
   env = envs.create("point", episode_length=20)
   config = SMALL.replace(num_evals=2)
   directory = str(tmp_path / "ckpt")
-
-  def stop_after_first_chunk(row):
-    raise KeyboardInterrupt
-
-  with pytest.raises(KeyboardInterrupt):
-    training.train(env, reach_latent(), config, progress=stop_after_first_chunk,
-                   checkpoint_dir=directory)
+  _stop_after_first_chunk(env, config, directory)
   state, meta = training.restore_state(directory, _like(env, config))
   del meta["config"]["checkpoint_env_state"]  # as blx wrote it before the setting existed
   checkpoint.save(directory, state, meta)
