@@ -8,6 +8,7 @@ import jax
 from mujoco import mjx
 
 from blx import envs
+from blx.training import PPOConfig
 
 
 def raw_physics_runner(env) -> Callable:
@@ -37,3 +38,10 @@ def print_table(header: str, rows: Sequence[dict], columns: Sequence[tuple[str, 
   print(f"| {first} |" + " ---: |" * (len(columns) - 1))
   for r in rows:
     print("| " + " | ".join(format(r[key], spec) for _, key, spec in columns) + " |")
+
+
+def one_iteration_per_chunk(config: PPOConfig, chunks: int = 100) -> PPOConfig:
+  """``config`` with a run of ``chunks`` chunks of one PPO iteration each, for timing a jitted chunk
+  back to back (``num_timesteps`` stays within PPOConfig's 2**31 - 1 up to 16 M env steps per
+  iteration)."""
+  return config.replace(num_timesteps=config.env_steps_per_iteration * chunks, num_evals=chunks)

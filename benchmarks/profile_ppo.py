@@ -32,6 +32,7 @@ import time
 import jax
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import common  # noqa: E402
 import throughput  # noqa: E402
 import train_throughput  # noqa: E402
 
@@ -53,8 +54,8 @@ CATEGORIES = (
 
 def _config(env_name: str, num_envs: int) -> training.PPOConfig:
   config = training.ppo_defaults(env_name, num_envs=num_envs, batch_size=num_envs // 2,
-                                 num_minibatches=32, num_timesteps=10**12, num_evals=10**6)
-  return config.replace(num_timesteps=config.env_steps_per_iteration * 10**6)
+                                 num_minibatches=32)
+  return common.one_iteration_per_chunk(config)
 
 
 def _time(fn, *args, repeats: int) -> float:

@@ -44,8 +44,8 @@ def measure(env_name: str, num_envs: int, iterations: int, objective=None,
   env = envs.create(env_name)
   # Keep the ant row's 16 unrolls per env per iteration (2048 envs, batch 1024, 32 minibatches).
   config = training.ppo_defaults(env_name, num_envs=num_envs, batch_size=num_envs // 2,
-                                 num_minibatches=32, num_timesteps=10**12, num_evals=10**6)
-  config = config.replace(num_timesteps=config.env_steps_per_iteration * 10**6)  # 1 iteration a chunk
+                                 num_minibatches=32)
+  config = common.one_iteration_per_chunk(config)
   objective = objective(env) if callable(objective) else task()
   trainer = training.make_trainer(env, objective, config)
   assert trainer.iterations_per_chunk == 1

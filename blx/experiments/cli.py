@@ -32,11 +32,19 @@ class UsageError(Exception):
   """Bad input from the command line: one line, exit status 2."""
 
 
+# JSON's spellings, which users type as often as Python's (--config staggered_starts=true).
+_WORDS = {"true": True, "false": False, "null": None}
+
+
 def _parse_value(text: str):
+  """A Python literal (``1e-3``, ``True``, ``[13, 14]``), JSON's ``true`` / ``false`` / ``null`` in
+  any case, or else the text itself (a bare word such as ``vel_xy``)."""
+  if text.lower() in _WORDS:
+    return _WORDS[text.lower()]
   try:
     return ast.literal_eval(text)
   except (ValueError, SyntaxError):
-    return text  # a bare word such as vel_xy
+    return text
 
 
 def _parse_pairs(items, flag: str) -> dict:

@@ -5,7 +5,7 @@ A run directory holds:
 * ``config.json``: everything needed to rebuild the run (format version, env name, params and the
   full desc, objective name and options, PPO config, seeds, evaluation settings);
 * ``checkpoint/``: the training state of every seed (``blx.training.checkpoint``);
-* ``metrics.csv``: one row per evaluation and seed;
+* ``metrics.csv``: one row per evaluation and seed, rewritten after every evaluation;
 * ``eval.json``: the final metrics of ``blx eval``;
 * ``plots/``: ``training_curves.png``, and ``skills.png`` (each skill's cloud in the feature space)
   and ``paths.png`` (where each skill takes the agent) for MI-max, or ``density.png`` and
@@ -304,9 +304,21 @@ def train_run(spec: RunSpec, directory: str, *, resume: bool = False, progress=T
   else:  # a resumed run keeps its config.json untouched
     write_config(directory, spec, env)
   evaluator = evaluator_for(env, objective, quick=True) if eval_metrics else None
-  result = training.train(env, objective, config, seeds=spec.seeds, progress=progress,
-                          checkpoint_dir=os.path.join(directory, "checkpoint"), resume=resume,
-                          evaluate=evaluator)
+  checkpoint_dir = os.path.join(directory, "checkpoint")
+  # metrics.csv grows with every evaluation, so that a run stopped before its end (a killed
+  # process, a lost machine) still shows its curves up to its last checkpoint.
+  history = (list(checkpoint.read_meta(checkpoint_dir).get("history", []))
+             if resume and checkpoint.exists(checkpoint_dir) else [])
+  show = training.print_progress if progress is True else (progress or None)
+
+  def report(row: dict) -> None:
+    history.append(row)
+    write_metrics_csv(os.path.join(directory, "metrics.csv"), history, spec.seeds)
+    if show:
+      show(row)
+
+  result = training.train(env, objective, config, seeds=spec.seeds, progress=report,
+                          checkpoint_dir=checkpoint_dir, resume=resume, evaluate=evaluator)
   write_metrics_csv(os.path.join(directory, "metrics.csv"), result.metrics, spec.seeds)
   run = Run(directory, spec, env, objective, config, result.params, result.policy,
             {"history": result.metrics})

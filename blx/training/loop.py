@@ -28,8 +28,9 @@ class TrainResult(NamedTuple):
 
   Attributes:
     params: ``PolicyParams`` (normaliser, policy, objective), each leaf with a leading seed axis.
-    metrics: one dict per evaluation: ``env_steps``, ``time``, training means and ``eval/...``
-      values, each a list over seeds.
+    metrics: one dict per evaluation: ``env_steps``, ``time`` (wall seconds of training so far,
+      compilation included, summed over the processes of a resumed run), training means and
+      ``eval/...`` values, each a list over seeds.
     policy: ``policy(params, obs, z=None, key=None, deterministic=True) -> action`` for one seed's
       params (``jax.tree.map(lambda x: x[i], result.params)``).
     state: the final ``TrainState`` (leading seed axis).
@@ -45,7 +46,8 @@ _PROGRESS_KEYS = ("eval/episode_reward", "eval/episode_score", "disc/accuracy", 
                   "eval/lgr", "eval/energy_distance")
 
 
-def _print_progress(row: dict) -> None:
+def print_progress(row: dict) -> None:
+  """The line ``train(progress=True)`` prints after each evaluation (to stderr)."""
   evals = ", ".join(f"{k.split('/', 1)[1]} {np.mean(v):.3g}" for k, v in row.items()
                     if k in _PROGRESS_KEYS)
   print(f"[blx] steps {row['env_steps']:,.0f}/{row['total_steps']:,.0f}  "
@@ -83,13 +85,13 @@ def train(env: Any, objective: Objective, config: PPOConfig, *, seeds: Sequence[
   init_fn = jax.jit(jax.vmap(trainer.init))
   chunk_fn = jax.jit(jax.vmap(trainer.chunk))
   eval_fn = jax.jit(jax.vmap(lambda state, key: trainer.evaluate(policy_params(state), key)))
-  report = _print_progress if progress is True else (progress or None)
+  report = print_progress if progress is True else (progress or None)
   extra_eval_fn = None
   if evaluate is not None:
     extra_eval_fn = jax.jit(jax.vmap(
         lambda state, key: evaluate(trainer.policy, policy_params(state), key)))
 
-  start_chunk, history = 0, []
+  start_chunk, history, time_before = 0, [], 0.0
   meta_base = {"seeds": seeds, "config": dataclasses.asdict(config), "objective": objective.name,
                "num_chunks": trainer.num_chunks}
   if resume and checkpoint_dir and checkpoint.exists(checkpoint_dir):
@@ -101,6 +103,7 @@ def train(env: Any, objective: Objective, config: PPOConfig, *, seeds: Sequence[
         raise ValueError(f"resume: the checkpoint in {checkpoint_dir} was written with a different "
                          f"{key} ({meta.get(key)!r}); start a new run or use the same {key}")
     start_chunk, history = int(meta["chunk"]), list(meta.get("history", []))
+    time_before = float(history[-1]["time"]) if history else 0.0
     if state.env_state is None:  # written with checkpoint_env_state=False: every env starts anew
       state = state.replace(env_state=init_fn(init_keys).env_state)
   else:
@@ -145,7 +148,7 @@ def train(env: Any, objective: Objective, config: PPOConfig, *, seeds: Sequence[
       env_steps = float(np.asarray(state.env_steps)[0])
       elapsed = time.time() - t0
       rate = (env_steps - steps0) / max(elapsed - compile_seconds, 1e-9)
-      row = {"env_steps": env_steps, "time": elapsed, "steps_per_second": rate,
+      row = {"env_steps": env_steps, "time": time_before + elapsed, "steps_per_second": rate,
              "total_steps": float(total), "eta_seconds": (total - env_steps) / max(rate, 1e-9),
              "compile_seconds": compile_seconds}
       for k, v in metrics.items():

@@ -257,6 +257,34 @@ def test_resume_reads_the_run_and_never_writes_on_a_contradiction(trained, tmp_p
   assert os.path.exists(os.path.join(trained, "eval.json"))
 
 
+def test_a_run_stopped_early_keeps_its_metrics_and_its_resume_continues_them(tmp_path):
+  from blx.experiments import runs
+  ppo = {**TINY_CONFIG, "num_timesteps": 1600}
+  spec = runs.RunSpec(env="point", objective="diayn", objective_options={"num_skills": 3},
+                      ppo=ppo, seeds=(0, 1), env_params={"episode_length": 20})
+  out = str(tmp_path / "run")
+
+  def killed(row):  # the process dies right after the first evaluation
+    raise KeyboardInterrupt
+
+  with pytest.raises(KeyboardInterrupt):
+    runs.train_run(spec, out, progress=killed)
+  path = os.path.join(out, "metrics.csv")
+  first = list(csv.DictReader(open(path)))
+  assert [r["seed"] for r in first] == ["0", "1"]  # the first evaluation, for both seeds
+  assert "eval.json" not in os.listdir(out)
+
+  seen = []
+  runs.train_run(spec, out, resume=True, progress=seen.append)
+  rows = list(csv.DictReader(open(path)))
+  assert len(seen) == 1 and len(rows) == 4  # the resumed process ran the second chunk only
+  assert rows[:2] == first  # the first chunk's rows, as the stopped process wrote them
+  steps = [float(r["env_steps"]) for r in rows[::2]]
+  assert steps[1] == 2 * steps[0]
+  # "time" adds the resumed process's wall time (its compilation at least) to the stopped one's.
+  assert float(rows[2]["time"]) > float(rows[0]["time"]) + float(rows[2]["compile_seconds"])
+
+
 def test_envs_describes_an_env(capsys):
   assert cli.main(["envs", "ant"]) == 0
   out = capsys.readouterr().out
@@ -301,6 +329,15 @@ def test_unwritable_output_is_one_line(tmp_path, capsys):
   assert "Traceback" not in err
   last = err.strip().splitlines()[-1]
   assert last.startswith("blx train: error: Not a directory") and str(blocker) in last, err
+
+
+@pytest.mark.parametrize("text, value", [
+    ("true", True), ("False", False), ("TRUE", True), ("True", True), ("null", None),
+    ("None", None), ("1e-3", 1e-3), ("16384", 16384), ("[13,14]", [13, 14]), ("vel_xy", "vel_xy"),
+])
+def test_config_values_take_python_and_json_spellings(text, value):
+  parsed = cli._parse_pairs([f"staggered_starts={text}"], "--config")["staggered_starts"]
+  assert parsed == value and type(parsed) is type(value)
 
 
 def test_train_help_lists_envs_objectives_and_config_defaults(capsys):

@@ -1,0 +1,36 @@
+"""benchmarks/common.py: the one-iteration-per-chunk config that the timing benchmarks
+(train_throughput.py, profile_ppo.py) run a jitted chunk with."""
+
+import importlib.util
+import pathlib
+import sys
+
+import pytest
+
+from blx import training
+from blx.objectives import task
+from tests.conftest import make_env
+
+_DIR = pathlib.Path(__file__).resolve().parents[2] / "benchmarks"
+sys.path.insert(0, str(_DIR))
+_spec = importlib.util.spec_from_file_location("common", _DIR / "common.py")
+common = importlib.util.module_from_spec(_spec)
+_spec.loader.exec_module(common)
+
+
+@pytest.mark.parametrize("num_envs", [2048, 16384, 65536])
+def test_one_iteration_per_chunk_is_a_valid_config_at_any_benchmarked_scale(num_envs):
+  # The timing benchmarks once asked for 10**12 steps, which PPOConfig refuses (2**31 - 1 at most).
+  config = training.ppo_defaults("ant", num_envs=num_envs, batch_size=num_envs // 2,
+                                 num_minibatches=32)
+  one = common.one_iteration_per_chunk(config, chunks=100)
+  assert one.num_evals == 100
+  assert one.num_timesteps == 100 * config.env_steps_per_iteration
+  assert (one.num_envs, one.batch_size, one.num_minibatches) == (num_envs, num_envs // 2, 32)
+
+
+def test_the_trainer_runs_one_iteration_per_chunk():
+  env = make_env("point")
+  config = common.one_iteration_per_chunk(training.ppo_defaults("point"), chunks=7)
+  trainer = training.make_trainer(env, task(), config)
+  assert (trainer.iterations_per_chunk, trainer.num_chunks) == (1, 7)
