@@ -31,6 +31,31 @@ ROW = dict(unroll_length=5, num_minibatches=32, num_updates_per_batch=4, learnin
            entropy_cost=1e-2, discounting=0.97, reward_scaling=10.0)
 
 
+def replicated(x, devices):
+  """What ``jax.device_put_replicated(x, devices)`` returned: every leaf stacked once per device on
+  a new leading axis, one slice on each device (the layout ``jax.pmap`` takes)."""
+  import jax
+  import jax.numpy as jnp
+  import numpy as np
+  mesh = jax.sharding.Mesh(np.asarray(devices), ("devices",))
+  sharding = jax.sharding.NamedSharding(mesh, jax.sharding.PartitionSpec("devices"))
+  return jax.tree.map(
+      lambda a: jax.device_put(jnp.stack([jnp.asarray(a)] * len(devices)), sharding), x)
+
+
+def patch_jax_for_brax() -> bool:
+  """brax 0.14.2's PPO calls ``jax.device_put_replicated``, which jax 0.10+ no longer provides (its
+  pmap migration guide names ``jax.device_put`` instead). Puts :func:`replicated` in its place for
+  brax's sake when it is missing; True if it did. blx itself never calls it."""
+  import jax
+  try:
+    jax.device_put_replicated  # noqa: B018
+    return False
+  except AttributeError:
+    jax.device_put_replicated = replicated
+    return True
+
+
 def run_brax(args) -> dict:
   from brax import envs as brax_envs
   from brax.training.agents.ppo import train as brax_ppo
@@ -94,6 +119,9 @@ def main():
           "the brax wheel (../shared/gpu/fetch-wheels.sh)")
     return
   import jax
+  if patch_jax_for_brax():
+    print(f"peer: jax {jax.__version__} has no device_put_replicated; brax gets an equivalent "
+          "built on jax.device_put (peer.replicated)", flush=True)
   results = []
   for side in order:
     try:

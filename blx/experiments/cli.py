@@ -289,8 +289,12 @@ def cmd_render(args) -> int:
   length = envs.episode_steps(run.env, "render") * repeat
   steps = min(args.steps or length, length) // repeat
   qpos = np.asarray(render.rollout_qpos(run, params, latents, key, steps=steps))
+  model, base = run.env.mj_model, envs.unwrap(run.env)
+  if base.agents:  # each agent its own colour, named in the label
+    model, legend = render.colour_agents(model, base.agent_names)
+    labels = [f"{label}\n{legend}" for label in labels]
   frames = np.concatenate([
-      render.label_frames(render.render_frames(run.env.mj_model, q, width=args.width,
+      render.label_frames(render.render_frames(model, q, width=args.width,
                                                height=args.height,
                                                track=envs.unwrap(run.env).tracked_bodies), label)
       for q, label in zip(qpos, labels)])

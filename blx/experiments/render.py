@@ -5,7 +5,7 @@ from __future__ import annotations
 import os
 
 __all__ = ["GLError", "ensure_headless_gl", "load_gl_backend", "rollout_qpos", "render_frames",
-           "label_frames", "write_video"]
+           "colour_agents", "label_frames", "write_video"]
 
 # What each MUJOCO_GL backend needs on the machine.
 GL_NEEDS = {
@@ -139,23 +139,53 @@ def render_frames(mj_model, qpos, *, width: int = 320, height: int = 240,
   return np.stack(frames)
 
 
+# One colour per agent of a multi-agent scene (RGBA), and the word a label uses for it.
+AGENT_COLOURS = (("blue", (0.25, 0.50, 0.90, 1.0)), ("orange", (0.95, 0.55, 0.15, 1.0)),
+                 ("green", (0.30, 0.70, 0.30, 1.0)), ("red", (0.85, 0.25, 0.25, 1.0)),
+                 ("purple", (0.60, 0.35, 0.80, 1.0)), ("brown", (0.55, 0.35, 0.20, 1.0)),
+                 ("pink", (0.95, 0.50, 0.75, 1.0)), ("grey", (0.50, 0.50, 0.50, 1.0)))
+
+
+def colour_agents(mj_model, agent_names):
+  """A copy of ``mj_model`` in which every geom of agent i (the bodies named ``<agent>/...``) has
+  colour i of :data:`AGENT_COLOURS` (cycling past eight agents), so that a video tells the agents
+  apart; and the legend, e.g. ``"agent0 blue, agent1 orange"``. The scene's other geoms keep
+  theirs. The model the env steps with is not touched."""
+  import copy
+
+  model = copy.deepcopy(mj_model)
+  legend = []
+  for i, agent in enumerate(agent_names):
+    word, rgba = AGENT_COLOURS[i % len(AGENT_COLOURS)]
+    legend.append(f"{agent} {word}")
+    for g in range(model.ngeom):
+      if model.body(int(model.geom_bodyid[g])).name.startswith(agent + "/"):
+        model.geom_rgba[g] = rgba
+        model.geom_matid[g] = -1  # a material's colour would win over the geom's
+  return model, ", ".join(legend)
+
+
 def label_frames(frames, text: str):
-  """``frames [T, H, W, 3]`` with ``text`` in a dark band across the top (e.g. "skill 3"), so a
-  video of several episodes says which one is playing. Pillow (matplotlib's own dependency) draws
-  it."""
+  """``frames [T, H, W, 3]`` with ``text`` in a dark band across the top (e.g. "skill 3"), one line
+  of the band per line of ``text``, so a video of several episodes says which one is playing.
+  Pillow (matplotlib's own dependency) draws it."""
   import numpy as np
   from PIL import Image, ImageDraw, ImageFont
 
   frames = np.asarray(frames)
-  band = max(12, frames.shape[1] // 12)
+  line = max(12, frames.shape[1] // 12)
+  lines = text.split("\n")
+  band = min(line * len(lines), frames.shape[1])
   try:  # a scalable font where Pillow has FreeType, else its small bitmap font
-    font = ImageFont.load_default(size=band - 4)
+    font = ImageFont.load_default(size=line - 4)
   except (TypeError, OSError, ImportError):
     font = ImageFont.load_default()
   out = np.array(frames, copy=True)
   out[:, :band] = (out[:, :band] * 0.35).astype(out.dtype)  # darken, keep the scene visible
   stamp = Image.fromarray(np.zeros((band, frames.shape[2], 3), np.uint8))
-  ImageDraw.Draw(stamp).text((4, 1), text, fill=(255, 255, 255), font=font)
+  draw = ImageDraw.Draw(stamp)
+  for i, words in enumerate(lines):
+    draw.text((4, 1 + i * line), words, fill=(255, 255, 255), font=font)
   ink = np.asarray(stamp)
   out[:, :band] = np.maximum(out[:, :band], ink[None])
   return out

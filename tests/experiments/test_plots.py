@@ -45,6 +45,40 @@ def test_video_frames_carry_their_label_and_keep_the_scene():
   assert (zero[0] == zero[2]).all()  # the same label on every frame of an episode
 
 
+def test_a_two_line_label_takes_two_lines_of_band():
+  import numpy as np
+
+  from blx.experiments import render
+  frames = np.full((2, 240, 320, 3), 128, np.uint8)
+  two = render.label_frames(frames, "task on chase\nagent0 blue, agent1 orange")
+  line = 240 // 12
+  assert (two[:, 2 * line:] == frames[:, 2 * line:]).all()
+  assert (two[:, line:2 * line] != frames[:, line:2 * line]).any()  # the second line is drawn
+  one = render.label_frames(frames, "task on chase")
+  assert (one[:, line:] == frames[:, line:]).all()
+
+
+def test_each_agent_of_a_scene_gets_its_own_colour_and_nothing_else_changes():
+  import numpy as np
+
+  from blx import envs
+  from blx.experiments import render
+  env = envs.create("chase", main_agent="point", other_agent="point")
+  model = envs.unwrap(env).mj_model
+  before = np.array(model.geom_rgba, copy=True)
+  coloured, legend = render.colour_agents(model, ("agent0", "agent1"))
+  assert legend == "agent0 blue, agent1 orange"
+  np.testing.assert_array_equal(model.geom_rgba, before)  # the env's own model is untouched
+  owner = [model.body(int(b)).name.split("/")[0] for b in model.geom_bodyid]
+  for g, agent in enumerate(owner):
+    if agent in ("agent0", "agent1"):
+      want = dict(render.AGENT_COLOURS)["blue" if agent == "agent0" else "orange"]
+      np.testing.assert_allclose(coloured.geom_rgba[g], want)
+    else:  # the floor and anything else in the scene
+      np.testing.assert_array_equal(coloured.geom_rgba[g], before[g])
+  assert {"agent0", "agent1"} <= set(owner) and len(set(owner)) > 2
+
+
 def test_skills_get_clearly_distinct_colours_and_paths_are_drawn(tmp_path):
   import numpy as np
   for num in (4, 8, 16, 30):
