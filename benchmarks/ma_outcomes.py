@@ -38,11 +38,15 @@ from blx.experiments import runs
 
 def make_rollouts(run: runs.Run, seed_index: int, episodes: int, steps: int):
   """``rollouts(trained, key) -> (xy, alive)``: ``episodes`` episodes with agent i trained where
-  ``trained[i]``, else uniformly random; torso xy per agent after each step ``[E, T, A, 2]``, and
-  ``alive [E, T]`` (True while no end happened before step t, so the step an episode ends on still
-  counts). One compiled program serves every arm."""
+  ``trained[i]``, else uniformly random; root-body (torso) xy per agent after each step
+  ``[E, T, A, 2]``, and ``alive [E, T]`` (True while no end happened before step t, so the step an
+  episode ends on still counts). One compiled program serves every arm."""
   env, base = run.env, envs.unwrap(run.env)
-  torsos = jnp.asarray([base.mj_model.body(f"{n}/torso").id for n in base.agent_names])
+  roots = base.tracked_bodies  # each actuated component's root body, in the agents' order
+  if len(roots) != len(base.agent_names):
+    raise ValueError(f"{run.directory}: {len(roots)} actuated components for agents "
+                     f"{list(base.agent_names)}; this compares scenes of one body per agent")
+  roots = jnp.asarray(roots)
   params = jax.tree.map(lambda x: x[seed_index], run.params)
 
   @jax.jit
@@ -54,7 +58,7 @@ def make_rollouts(run: runs.Run, seed_index: int, episodes: int, steps: int):
     reset_key, action_key = jax.random.split(key)
     state = jax.vmap(env.reset)(jax.random.split(reset_key, episodes))
     _, (xy, done) = envs.rollout(env, act, state, steps, action_key,
-                                 lambda s, a, nxt: (nxt.data.xpos[:, torsos, :2], nxt.done))
+                                 lambda s, a, nxt: (nxt.data.xpos[:, roots, :2], nxt.done))
     return xy.swapaxes(0, 1), envs.alive_before(done).swapaxes(0, 1)
 
   def rollouts(trained: tuple[bool, ...], key: jax.Array):

@@ -296,7 +296,7 @@ def cmd_render(args) -> int:
   frames = np.concatenate([
       render.label_frames(render.render_frames(model, q, width=args.width,
                                                height=args.height,
-                                               track=envs.unwrap(run.env).tracked_bodies), label)
+                                               track=base.tracked_bodies), label)
       for q, label in zip(qpos, labels)])
   out = args.out or os.path.join(args.dir, "video.mp4")
   fps = 1.0 / (run.env.dt * repeat)

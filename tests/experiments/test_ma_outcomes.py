@@ -49,3 +49,27 @@ def test_an_early_end_far_apart_is_an_escape():
 def test_no_catch_has_no_steps_to_catch():
   s = ma_outcomes.summarise(np.ones((2, 4, 2, 2)), np.ones((2, 4), bool), 0.5, 3.0)
   assert s["caught"] == 0 and s["steps_to_catch"] is None and s["ended_early"] == 0
+
+
+def test_rollouts_let_the_policy_drive_only_the_trained_agents():
+  import jax
+  import jax.numpy as jnp
+
+  from blx.experiments import runs
+  spec = runs.RunSpec(env="chase", objective="task", objective_options={}, ppo={},
+                      env_params={"main_agent": "point", "other_agent": "point",
+                                  "episode_length": 30})
+  env, objective, config = runs.build(spec)
+  still = lambda params, obs: jnp.zeros((obs.shape[0], env.action_size))  # a policy that rests
+  run = runs.Run("test", spec, env, objective, config, {"w": jnp.zeros((1,))}, still, {})
+  rollouts = ma_outcomes.make_rollouts(run, seed_index=0, episodes=4, steps=30)
+  key = jax.random.PRNGKey(0)
+  moved = {}
+  for trained in ((True, True), (True, False), (False, True)):
+    xy, alive = rollouts(trained, key)
+    assert xy.shape == (4, 30, 2, 2) and alive.shape == (4, 30) and alive[:, 0].all()
+    moved[trained] = np.abs(xy[:, -1] - xy[:, 0]).sum(-1).mean(0)  # [agents]
+  # The resting policy holds a trained point still; a random one wanders.
+  np.testing.assert_allclose(moved[(True, True)], 0.0, atol=1e-3)
+  assert moved[(True, False)][0] < 1e-3 < moved[(True, False)][1]
+  assert moved[(False, True)][1] < 1e-3 < moved[(False, True)][0]
