@@ -12,10 +12,10 @@ observations, 1000-step episodes) and the ``--num-envs`` / ``--batch-size`` / ``
 ``--num-evals`` given.
 
 Printed per side: the wall time from the call (env build and compilation included) to the end, the
-time to the first evaluation, and the steady rate between the first and the last evaluation (env
-steps per second, evaluations included). The rewards are printed too, but the two ants' rewards
-are not the same function (Brax's has a contact cost and its own healthy rule), so only the
-timings compare. Skips, saying so, where brax is not installed (carry its wheel to the GPU
+time to the first evaluation, and the steady rate: the median over the intervals between two
+evaluations of env steps per second (evaluations included; ``steady_rate``). The rewards are
+printed too, but the two ants' rewards are not the same function (Brax's has a contact cost and
+its own healthy rule), so only the timings compare. Skips, saying so, where brax is not installed (carry its wheel to the GPU
 machine: ``../shared/gpu/fetch-wheels.sh`` includes brax 0.14.2).
 """
 
@@ -27,20 +27,23 @@ import os
 import sys
 import time
 
+import numpy as np
+
 ROW = dict(unroll_length=5, num_minibatches=32, num_updates_per_batch=4, learning_rate=3e-4,
            entropy_cost=1e-2, discounting=0.97, reward_scaling=10.0)
 
 
 def replicated(x, devices):
   """What ``jax.device_put_replicated(x, devices)`` returned: every leaf stacked once per device on
-  a new leading axis, one slice on each device (the layout ``jax.pmap`` takes)."""
+  a new leading axis, one slice on each device (the layout ``jax.pmap`` takes). It is made by a
+  ``jax.pmap`` that broadcasts ``x``, so it carries the sharding of pmap's own outputs: an array
+  placed with ``jax.device_put`` and a NamedSharding instead makes the pmapped training step of
+  brax trace and compile a second time on its second call, when its input is its own output."""
   import jax
   import jax.numpy as jnp
-  import numpy as np
-  mesh = jax.sharding.Mesh(np.asarray(devices), ("devices",))
-  sharding = jax.sharding.NamedSharding(mesh, jax.sharding.PartitionSpec("devices"))
-  return jax.tree.map(
-      lambda a: jax.device_put(jnp.stack([jnp.asarray(a)] * len(devices)), sharding), x)
+  devices = list(devices)
+  return jax.pmap(lambda _, t: t, in_axes=(0, None), devices=devices)(
+      jnp.arange(len(devices)), jax.tree.map(jnp.asarray, x))
 
 
 def patch_jax_for_brax() -> bool:
@@ -94,9 +97,14 @@ def run_blx(args) -> dict:
 
 
 def steady_rate(rows: list[dict]) -> float | None:
-  if len(rows) < 2 or rows[-1]["wall_s"] <= rows[0]["wall_s"]:
-    return None
-  return (rows[-1]["env_steps"] - rows[0]["env_steps"]) / (rows[-1]["wall_s"] - rows[0]["wall_s"])
+  """The median of the env steps per second between consecutive evaluations: robust to a chunk
+  that compiled (brax compiles its training step after its evaluation at step 0) and to two
+  reports that come together (blx's last two, before session 13's loop), which a rate between the
+  first and the last evaluation is not."""
+  rates = [(b["env_steps"] - a["env_steps"]) / (b["wall_s"] - a["wall_s"])
+           for a, b in zip(rows, rows[1:])
+           if b["env_steps"] > a["env_steps"] and b["wall_s"] - a["wall_s"] > 0.05]
+  return float(np.median(rates)) if rates else None
 
 
 def main():

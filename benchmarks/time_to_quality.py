@@ -2,7 +2,7 @@
 paper's MI (1.115) and GAIL on Ant the paper's energy distance (0.802), for several num_envs.
 
     python benchmarks/time_to_quality.py [--objectives diayn,gail] [--num-envs 2048,8192,16384,32768]
-        [--seeds 4] [--steps 60000000] [--budget-s 600] [--num-evals 40] [--config JSON]
+        [--seeds 4] [--first-seed 0] [--steps 60000000] [--budget-s 600] [--num-evals 40] [--config JSON]
         [--out DIR] [--env ant] [--threshold NAME=VALUE ...] [--quick-eval]
         [--arm LABEL=JSON ...]
 
@@ -51,12 +51,12 @@ class _Stop(Exception):
 
 
 def arm_spec(env: str, objective: str, num_envs: int, seeds: int, steps: int, num_evals: int,
-             config: dict) -> runs.RunSpec:
+             config: dict, first_seed: int = 0) -> runs.RunSpec:
   family = next(spec for spec in paper_tables.specs(seeds).values()
                 if objective in spec["objective"])
   ppo = {"num_envs": num_envs, "num_timesteps": steps, "num_evals": num_evals, **config}
   return runs.RunSpec(env=env, objective=objective, objective_options=dict(family["options"]),
-                      ppo=ppo, seeds=tuple(range(seeds)))
+                      ppo=ppo, seeds=tuple(range(first_seed, first_seed + seeds)))
 
 
 def run_arm(spec: runs.RunSpec, key: str, threshold: float, larger: bool, budget_s: float,
@@ -85,7 +85,8 @@ def run_arm(spec: runs.RunSpec, key: str, threshold: float, larger: bool, budget
   per_seed = [next((r["wall_s"] for r in rows if better(r["values"][i])), None)
               for i in range(len(spec.seeds))]
   # The settings given, and the batch they came to (the row's unless given).
-  ppo = {**spec.ppo, "batch_size": config.batch_size, "num_minibatches": config.num_minibatches}
+  ppo = {**spec.ppo, "batch_size": config.batch_size, "num_minibatches": config.num_minibatches,
+         "starts_staggered": config.starts_staggered}
   return {"objective": spec.objective, "num_envs": spec.ppo["num_envs"], "ppo": ppo,
           "metric": key, "threshold": threshold, "rows": rows,
           "time_to_quality_s": first and first["wall_s"],
@@ -94,11 +95,13 @@ def run_arm(spec: runs.RunSpec, key: str, threshold: float, larger: bool, budget
           "wall_s": time.time() - start}
 
 
-def plot(results: list[dict], path: str) -> None:
+def plot(results: list[dict], path: str) -> list[str]:
+  """Writes the figure to ``path``; returns the legend's labels of the arms."""
   import matplotlib
   matplotlib.use("Agg")
   import matplotlib.pyplot as plt
   names = list(dict.fromkeys(r["objective"] for r in results))
+  labels = []
   fig, axes = plt.subplots(1, len(names), figsize=(5.2 * len(names), 3.8), squeeze=False)
   for ax, name in zip(axes.flat, names):
     arms = [r for r in results if r["objective"] == name]
@@ -107,9 +110,12 @@ def plot(results: list[dict], path: str) -> None:
       v = np.array([row["values"] for row in r["rows"]])
       if not len(t):
         continue
-      label = f"{r['num_envs']:,} envs, batch {r['ppo']['batch_size']:,}" + (
-          f", {r['label']}" if r.get("label") else "")
+      staggered = r["ppo"].get("starts_staggered")
+      label = (f"{r['num_envs']:,} envs, batch {r['ppo']['batch_size']:,}"
+               + {True: ", staggered starts", False: ", starts in step"}.get(staggered, "")
+               + (f", {r['label']}" if r.get("label") else ""))
       ax.plot(t, v.mean(1), "o-", ms=3, color=f"C{i}", label=label)
+      labels.append(label)
       if v.shape[1] > 1:
         ax.fill_between(t, v.min(1), v.max(1), color=f"C{i}", alpha=0.15)
     key, value = arms[0]["metric"], arms[0]["threshold"]
@@ -122,11 +128,13 @@ def plot(results: list[dict], path: str) -> None:
     ax.set_title(f"{name} on {arms[0].get('env', 'ant')}", fontsize=10)
     ax.legend(fontsize=7)
   seeds = len(results[0]["rows"][0]["values"]) if results and results[0]["rows"] else 1
-  fig.text(0.5, 0.005, f"line: mean over {seeds} seeds, band: lowest to highest seed",
+  fig.text(0.5, 0.005, "one seed" if seeds == 1 else
+           f"line: mean over {seeds} seeds, band: lowest to highest seed",
            ha="center", va="bottom", fontsize=7, color="0.3")
   fig.tight_layout(rect=(0, 0.04, 1, 1))
   fig.savefig(path, dpi=90)
   plt.close(fig)
+  return labels
 
 
 def main():
@@ -135,6 +143,8 @@ def main():
   parser.add_argument("--objectives", default="diayn,gail")
   parser.add_argument("--num-envs", default="2048,8192,16384,32768")
   parser.add_argument("--seeds", type=int, default=4)
+  parser.add_argument("--first-seed", type=int, default=0,
+                      help="seeds run are first-seed .. first-seed + seeds - 1")
   parser.add_argument("--steps", type=int, default=60_000_000)
   parser.add_argument("--budget-s", type=float, default=600.0, help="wall seconds per arm")
   parser.add_argument("--num-evals", type=int, default=40)
@@ -177,7 +187,8 @@ def main():
     key, threshold, larger = quality[name]
     for n, (label, settings) in itertools.product(
         [int(x) for x in args.num_envs.split(",")], arms):
-      spec = arm_spec(args.env, name, n, args.seeds, args.steps, args.num_evals, settings)
+      spec = arm_spec(args.env, name, n, args.seeds, args.steps, args.num_evals, settings,
+                      args.first_seed)
       result = {"env": args.env, "label": label,
                 **run_arm(spec, key, threshold, larger, args.budget_s, args.quick_eval)}
       results.append(result)
@@ -185,7 +196,9 @@ def main():
         json.dump(result, f, indent=1)
       plot(results, os.path.join(out, "time_to_quality.png"))
   import jax
-  lines = [f"{args.env}, {args.seeds} seeds vmapped, up to {args.steps:,} steps or "
+  seeds = f"seeds {args.first_seed}..{args.first_seed + args.seeds - 1} vmapped" if args.seeds > 1 \
+      else f"seed {args.first_seed}"
+  lines = [f"{args.env}, {seeds}, up to {args.steps:,} steps or "
            f"{args.budget_s:.0f} s per arm; jax {jax.__version__} on "
            f"{jax.devices()[0].device_kind}; PPO overrides {config or 'none'}", "",
            "| objective | num_envs | batch | recipe | time to quality (s) | env steps then | "

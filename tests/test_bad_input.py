@@ -80,7 +80,7 @@ PPO_BAD = {
     "normalize_observations": ["yes", 1, None],
     "normalize_advantage": ["yes", 1, None],
     "normalize_latent": ["yes", 1, None],
-    "staggered_starts": ["yes", 1, None],
+    "staggered_starts": ["yes", 1, "auto"],
     "checkpoint_env_state": ["no", 0, None],
     "policy_hidden": [(), (0,), "32", (1.5,), (32, -1), 32],
     "value_hidden": [(), (0,), "32", (1.5,), (32, -1), 32],

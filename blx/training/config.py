@@ -12,6 +12,7 @@ from blx.options import check_names
 __all__ = ["PPOConfig", "ppo_defaults", "check_seeds"]
 
 MAX_INT = 2**31 - 1  # step and iteration counters are 32-bit on the device
+ORIGINAL_NUM_ENVS = 2048  # Braxlines' num_envs in every row of its defaults
 
 
 @dataclasses.dataclass(frozen=True)
@@ -30,11 +31,15 @@ class PPOConfig:
     normaliser as one vector, as the original (its z is appended to the observation by a wrapper).
     False: only obs is normalised and z is appended raw.
 
-  ``staggered_starts`` (default off, as the original): at the start of training every env's
-  episode clock is set to a random step in [0, episode length), so the envs' episodes end at
-  different times instead of all together. Each env still starts from its reset state; only its
-  first episode is cut short. With many envs and few steps per env (16,384 envs see 1,800 steps
-  each in 30 M steps), synchronised envs fill every batch with one narrow phase of the episode.
+  ``staggered_starts``: at the start of training every env's episode clock is set to a random
+  step in [0, episode length), so the envs' episodes end at different times instead of all
+  together. Each env still starts from its reset state; only its first episode is cut short. With
+  many envs and few steps per env (16,384 envs see 1,800 steps each in 30 M steps), synchronised
+  envs fill every batch with one narrow phase of the episode. The default ``None`` chooses by
+  ``num_envs``: off up to the original's 2,048 envs (so the paper's settings run as the original,
+  whose envs all start together), on above them, where the original never ran and where staggered
+  starts took DIAYN on Ant at 16,384 envs to the paper's MI (benchmarks/RESULTS.md, session 9).
+  ``True`` or ``False`` forces it; ``starts_staggered`` is the resolved value.
 
   ``checkpoint_env_state`` (default on): checkpoints hold the whole training state, so a resumed
   run continues exactly where it stopped. False leaves the envs' state out (the simulator state of
@@ -59,7 +64,7 @@ class PPOConfig:
   normalize_observations: bool = True
   normalize_advantage: bool = False
   normalize_latent: bool = True
-  staggered_starts: bool = False
+  staggered_starts: bool | None = None
   checkpoint_env_state: bool = True
   max_grad_norm: float | None = None
   policy_hidden: tuple[int, ...] = (32, 32, 32, 32)
@@ -90,9 +95,12 @@ class PPOConfig:
       raise ValueError(f"PPOConfig.max_grad_norm must be None or a positive number, got "
                        f"{self.max_grad_norm!r}")
     for name in ("normalize_observations", "normalize_advantage", "normalize_latent",
-                 "staggered_starts", "checkpoint_env_state"):
+                 "checkpoint_env_state"):
       if not isinstance(getattr(self, name), bool):
         raise ValueError(f"PPOConfig.{name} must be True or False, got {getattr(self, name)!r}")
+    if not (self.staggered_starts is None or isinstance(self.staggered_starts, bool)):
+      raise ValueError(f"PPOConfig.staggered_starts must be True, False or None (chosen by "
+                       f"num_envs), got {self.staggered_starts!r}")
     if (self.batch_size * self.num_minibatches) % self.num_envs:
       raise ValueError(
           f"PPOConfig: batch_size * num_minibatches ({self.batch_size * self.num_minibatches}) must "
@@ -109,6 +117,14 @@ class PPOConfig:
         raise ValueError(f"PPOConfig.{name} must be a non-empty sequence of positive ints, e.g. "
                          f"(32, 32), got {value!r}")
       object.__setattr__(self, name, tuple(value))
+
+  @property
+  def starts_staggered(self) -> bool:
+    """``staggered_starts`` resolved: where it is None, whether ``num_envs`` exceeds the original's
+    2,048."""
+    if self.staggered_starts is None:
+      return self.num_envs > ORIGINAL_NUM_ENVS
+    return self.staggered_starts
 
   @property
   def num_unrolls(self) -> int:

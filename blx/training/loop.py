@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import concurrent.futures
 import dataclasses
 import sys
 import time
@@ -92,12 +93,16 @@ def train(env: Any, objective: Objective, config: PPOConfig, *, seeds: Sequence[
         lambda state, key: evaluate(trainer.policy, policy_params(state), key)))
 
   start_chunk, history, time_before = 0, [], 0.0
-  meta_base = {"seeds": seeds, "config": dataclasses.asdict(config), "objective": objective.name,
+  # The checkpoint records staggered_starts resolved (None chooses by num_envs), as it ran.
+  run_config = {**dataclasses.asdict(config), "staggered_starts": config.starts_staggered}
+  meta_base = {"seeds": seeds, "config": run_config, "objective": objective.name,
                "num_chunks": trainer.num_chunks}
   if resume and checkpoint_dir and checkpoint.exists(checkpoint_dir):
     state, meta = restore_state(checkpoint_dir, jax.eval_shape(init_fn, init_keys))
-    # A setting added after the checkpoint was written had its default's behaviour then.
-    meta = {**meta, "config": {**dataclasses.asdict(PPOConfig()), **(meta.get("config") or {})}}
+    # A setting added after the checkpoint was written had its default's behaviour then
+    # (staggered_starts: off).
+    then = {**dataclasses.asdict(PPOConfig()), "staggered_starts": False}
+    meta = {**meta, "config": {**then, **(meta.get("config") or {})}}
     for key in ("seeds", "config", "objective"):
       if _jsonable(meta.get(key)) != _jsonable(meta_base[key]):
         raise ValueError(f"resume: the checkpoint in {checkpoint_dir} was written with a different "
@@ -122,8 +127,9 @@ def train(env: Any, objective: Objective, config: PPOConfig, *, seeds: Sequence[
   compile_seconds = time.time() - t0
 
   def dispatch(state, chunk):
-    """Queues chunk ``chunk`` after ``state`` and the evaluations of its result on the device
-    without waiting for them (JAX dispatches asynchronously)."""
+    """Queues chunk ``chunk`` after ``state`` and the evaluations of its result on the device.
+    Runs on the dispatch thread, which may wait there for the device (on a GPU, loops whose end
+    depends on the data, as MJX's solver's, are checked from the launching thread)."""
     state, metrics = chunk_fn(state)
     evals = eval_fn(state, jax.vmap(jax.random.fold_in, (0, None))(eval_keys, chunk))
     extra = None
@@ -132,14 +138,21 @@ def train(env: Any, objective: Objective, config: PPOConfig, *, seeds: Sequence[
                                                                            1_000_003 + chunk))
     return state, metrics, evals, extra
 
+  # Chunks are dispatched from a second thread, so that the host checks, checkpoints and reports
+  # chunk k while the device runs chunk k + 1 (JAX's asynchronous dispatch alone did not overlap
+  # them on a GPU: each report came one chunk late, benchmarks/RESULTS.md session 13).
+  dispatcher = concurrent.futures.ThreadPoolExecutor(1, thread_name_prefix="blx-dispatch")
   try:
-    pending = dispatch(state, start_chunk) if start_chunk < trainer.num_chunks else None
+    pending = (dispatcher.submit(dispatch, state, start_chunk)
+               if start_chunk < trainer.num_chunks else None)
     for chunk in range(start_chunk, trainer.num_chunks):
-      state, metrics, evals, extra = pending
-      # The next chunk is queued before the host waits for this one's results, so the device
-      # trains on while the host checks, checkpoints and reports. A chunk that fails the finite
-      # check raises below; the queued chunk after it is then simply dropped.
-      pending = dispatch(state, chunk + 1) if chunk + 1 < trainer.num_chunks else None
+      state, metrics, evals, extra = pending.result()
+      # The small results start for the host before the next chunk is queued behind them. A
+      # chunk that fails the finite check raises below; the chunk queued after it is dropped.
+      for leaf in jax.tree.leaves((metrics, evals, extra)):
+        leaf.copy_to_host_async()
+      pending = (dispatcher.submit(dispatch, state, chunk + 1)
+                 if chunk + 1 < trainer.num_chunks else None)
       metrics = jax.device_get(metrics)
       _check_finite(metrics, chunk * trainer.iterations_per_chunk, seeds, checkpoint_dir)
       evals = jax.device_get(evals)
@@ -170,6 +183,8 @@ def train(env: Any, objective: Objective, config: PPOConfig, *, seeds: Sequence[
             f"{trainer.num_chunks} chunks: call train(..., checkpoint_dir={checkpoint_dir!r}, "
             "resume=True) to continue", file=sys.stderr)
     raise
+  finally:
+    dispatcher.shutdown(wait=False, cancel_futures=True)
 
   return TrainResult(params=policy_params(state), metrics=history, policy=trainer.policy, state=state)
 

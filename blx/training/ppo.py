@@ -458,7 +458,7 @@ def make_trainer(env: Any, objective: Objective, config: PPOConfig) -> Trainer:
         value=learner.value_net.init(value_key, jnp.zeros((policy_in,))),
         objective=objective.init(obj_key, obs_size))
     env_state = jax.vmap(train_env.reset)(jax.random.split(env_key, c.num_envs))
-    if c.staggered_starts:
+    if c.starts_staggered:
       env_state = stagger(env_state, jax.random.fold_in(env_key, 1))
     z = jax.vmap(objective.sample_latent)(jax.random.split(z_key, c.num_envs))
     return TrainState(params=params, opt_state=learner.optimizer.init(params),

@@ -282,6 +282,22 @@ def test_staggered_starts_spread_the_episode_ends_and_keep_each_episode_whole():
       np.testing.assert_array_equal(np.flatnonzero(row), np.arange(end - 1, 60, 20))
 
 
+def test_staggered_starts_by_default_only_above_the_originals_2048_envs():
+  from blx.training.config import ppo_defaults
+  assert SMALL.staggered_starts is None and not SMALL.starts_staggered
+  assert not ppo_defaults("ant").starts_staggered  # the paper's 2,048 envs start together
+  assert ppo_defaults("ant", num_envs=16384).starts_staggered
+  assert not ppo_defaults("ant", num_envs=16384, staggered_starts=False).starts_staggered
+  assert SMALL.replace(staggered_starts=True).starts_staggered
+  # The trainer follows the resolved value: 4,096 envs (above 2,048) start at spread clocks.
+  env = envs.create("point", episode_length=20)
+  for num_envs, spread in ((2048, False), (4096, True)):
+    config = SMALL.replace(num_envs=num_envs, batch_size=num_envs, num_minibatches=1)
+    init = jax.jit(training.make_trainer(env, reach_latent(), config).init)
+    offsets = np.asarray(init(jax.random.PRNGKey(0)).env_state.info["steps"])
+    assert (len(set(offsets.tolist())) == 20) if spread else (offsets == 0).all(), num_envs
+
+
 def test_a_checkpoint_without_env_state_is_smaller_and_a_run_resumes_from_it(tmp_path):
   env = envs.create("point", episode_length=20)
   config = SMALL.replace(num_evals=2)
@@ -334,11 +350,16 @@ def test_a_checkpoint_from_before_a_setting_existed_resumes_with_its_default(tmp
   directory = str(tmp_path / "ckpt")
   _stop_after_first_chunk(env, config, directory)
   state, meta = training.restore_state(directory, _like(env, config))
-  del meta["config"]["checkpoint_env_state"]  # as blx wrote it before the setting existed
+  for name in ("checkpoint_env_state", "staggered_starts"):
+    del meta["config"][name]  # as blx wrote it before the setting existed
   checkpoint.save(directory, state, meta)
   result = training.train(env, reach_latent(), config, progress=False, checkpoint_dir=directory,
                           resume=True)
   assert len(result.metrics) == 2
+  # staggered_starts is compared as it ran: the default (None) chose off at 16 envs, as False does.
+  assert checkpoint.read_meta(directory)["config"]["staggered_starts"] is False
+  training.train(env, reach_latent(), config.replace(staggered_starts=False), progress=False,
+                 checkpoint_dir=directory, resume=True)
   # A setting that differs from the checkpoint's is still refused.
   with pytest.raises(ValueError, match="different config"):
     training.train(env, reach_latent(), config.replace(checkpoint_env_state=False),

@@ -1,0 +1,37 @@
+"""benchmarks/time_to_quality.py: which seeds an arm trains, and a plot that says each arm's recipe."""
+
+import importlib.util
+import pathlib
+import sys
+
+_DIR = pathlib.Path(__file__).resolve().parents[2] / "benchmarks"
+sys.path.insert(0, str(_DIR))  # the script imports paper_tables beside it
+_spec = importlib.util.spec_from_file_location("time_to_quality", _DIR / "time_to_quality.py")
+ttq = importlib.util.module_from_spec(_spec)
+_spec.loader.exec_module(ttq)
+
+
+def test_an_arm_trains_the_seeds_from_first_seed_with_the_papers_objective_settings():
+  spec = ttq.arm_spec("ant", "diayn", 16384, 2, 1_000_000, 4, {"learning_rate": 1e-3},
+                      first_seed=3)
+  assert spec.seeds == (3, 4)
+  assert spec.ppo == {"num_envs": 16384, "num_timesteps": 1_000_000, "num_evals": 4,
+                      "learning_rate": 1e-3}
+  assert spec.objective == "diayn"
+  assert spec.objective_options == {"obs_indices": "vel", "obs_scale": 5.0, "spectral_norm": True}
+  assert ttq.arm_spec("ant", "diayn", 2048, 1, 1, 1, {}).seeds == (0,)
+
+
+def test_the_plot_names_each_arms_envs_batch_and_episode_starts(tmp_path):
+  def result(num_envs, staggered, values):
+    rows = [{"wall_s": 10.0 * (i + 1), "env_steps": 1e6 * (i + 1), "values": v,
+             "mean": sum(v) / len(v)} for i, v in enumerate(values)]
+    return {"objective": "diayn", "env": "ant", "num_envs": num_envs, "label": "",
+            "metric": "eval/mi", "threshold": 1.115, "rows": rows,
+            "ppo": {"batch_size": 1024, "starts_staggered": staggered}}
+  path = tmp_path / "ttq.png"
+  labels = ttq.plot([result(16384, True, [[0.5], [1.2]]), result(2048, False, [[0.3], [0.9]]),
+                     {**result(4096, None, [[0.1]]), "label": "lr2"}], str(path))
+  assert labels == ["16,384 envs, batch 1,024, staggered starts",
+                    "2,048 envs, batch 1,024, starts in step", "4,096 envs, batch 1,024, lr2"]
+  assert path.stat().st_size > 10_000
