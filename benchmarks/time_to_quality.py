@@ -13,11 +13,12 @@ row's batch (1,024 x 32 minibatches for the ant), so that every num_envs takes t
 steps per env step (session 9: with ``batch_size = num_envs // 2`` at 16,384 envs DIAYN barely
 learned), unless ``--config`` says otherwise. Each
 ``--arm LABEL=JSON`` adds one recipe (PPO settings over ``--config``), run at every num_envs, e.g.
-``--arm 'staggered={"staggered_starts": true}'``; without ``--arm`` there is one. After each
-of ``--num-evals`` chunks the paper's evaluator (sampled actions; ``--quick-eval``: 4 episodes,
-every 10th step) scores every seed. The clock starts before the env is built, so env compilation,
-XLA compilation and the evaluations all count, as a user's wall time would. An arm stops when the
-mean over seeds reaches the threshold, at ``--budget-s`` or at ``--steps``.
+``--arm 'instep={"staggered_starts": false}'`` (``PPOConfig`` staggers the starts above 2,048 envs
+by default); without ``--arm`` there is one. After each of ``--num-evals`` chunks the paper's
+evaluator (sampled actions; ``--quick-eval``: 4 episodes, every 10th step) scores every seed.
+The clock starts before the env is built, so env compilation, XLA compilation and the evaluations
+all count, as a user's wall time would. An arm stops when the mean over seeds reaches the
+threshold, at ``--budget-s`` or at ``--steps``.
 
 Writes ``DIR/<objective>_<num_envs>[_<label>].json`` (every evaluation: wall seconds, env steps, the metric
 per seed), ``DIR/summary.md`` and ``DIR/time_to_quality.png`` (the metric against wall seconds,
@@ -155,7 +156,7 @@ def main():
   parser.add_argument("--quick-eval", action="store_true")
   parser.add_argument("--arm", action="append", default=[], metavar="LABEL=JSON",
                       help="a recipe run at every num_envs: PPO settings over --config, e.g. "
-                      "'staggered={\"staggered_starts\": true}' (repeatable)")
+                      "'instep={\"staggered_starts\": false}' (repeatable)")
   parser.add_argument("--out", default=None)
   args = parser.parse_args()
   out = args.out or os.environ.get("OUT") or os.path.join("benchmarks", "ttq")
@@ -178,7 +179,7 @@ def main():
       settings = None
     if not isinstance(settings, dict):
       parser.error(f"--arm {item!r}: the settings after '=' must be a JSON object, e.g. "
-                   "'staggered={\"staggered_starts\": true}'")
+                   "'instep={\"staggered_starts\": false}'")
     arms.append((label, {**config, **settings}))
   results = []
   for name in args.objectives.split(","):
