@@ -15,8 +15,8 @@ Printed per side: the wall time from the call (env build and compilation include
 time to the first evaluation, and the steady rate: the median over the intervals between two
 evaluations of env steps per second (evaluations included; ``steady_rate``). The rewards are
 printed too, but the two ants' rewards are not the same function (Brax's has a contact cost and
-its own healthy rule), so only the timings compare. Skips, saying so, where brax is not installed (carry its wheel to the GPU
-machine: ``../shared/gpu/fetch-wheels.sh`` includes brax 0.14.2).
+its own healthy rule), so only the timings compare. Skips, saying so, where brax is not installed
+(carry its wheel to the GPU machine: ``../shared/gpu/fetch-wheels.sh`` includes brax 0.14.2).
 """
 
 from __future__ import annotations

@@ -2,8 +2,8 @@
 paper's MI (1.115) and GAIL on Ant the paper's energy distance (0.802), for several num_envs.
 
     python benchmarks/time_to_quality.py [--objectives diayn,gail] [--num-envs 2048,8192,16384,32768]
-        [--seeds 4] [--first-seed 0] [--steps 60000000] [--budget-s 600] [--num-evals 40] [--config JSON]
-        [--out DIR] [--env ant] [--threshold NAME=VALUE ...] [--quick-eval]
+        [--seeds 4] [--first-seed 0] [--steps 60000000] [--budget-s 600] [--num-evals 40]
+        [--config JSON] [--out DIR] [--env ant] [--threshold NAME=VALUE ...] [--quick-eval]
         [--arm LABEL=JSON ...]
 
 Every arm is one ``training.train`` with the paper's objective settings (those of

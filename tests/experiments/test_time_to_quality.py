@@ -1,4 +1,4 @@
-"""benchmarks/time_to_quality.py: which seeds an arm trains, and a plot that says each arm's recipe."""
+"""benchmarks/time_to_quality.py: which seeds an arm trains; a plot that names each arm's recipe."""
 
 import importlib.util
 import pathlib
