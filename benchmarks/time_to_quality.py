@@ -103,7 +103,7 @@ def plot(results: list[dict], path: str) -> list[str]:
   import matplotlib.pyplot as plt
   names = list(dict.fromkeys(r["objective"] for r in results))
   labels = []
-  fig, axes = plt.subplots(1, len(names), figsize=(5.2 * len(names), 3.8), squeeze=False)
+  fig, axes = plt.subplots(1, len(names), figsize=(5.2 * len(names), 4.8), squeeze=False)
   for ax, name in zip(axes.flat, names):
     arms = [r for r in results if r["objective"] == name]
     for i, r in enumerate(arms):
@@ -113,6 +113,7 @@ def plot(results: list[dict], path: str) -> list[str]:
         continue
       staggered = r["ppo"].get("starts_staggered")
       label = (f"{r['num_envs']:,} envs, batch {r['ppo']['batch_size']:,}"
+               + (f" x {r['ppo']['num_minibatches']}" if r["ppo"].get("num_minibatches") else "")
                + {True: ", staggered starts", False: ", starts in step"}.get(staggered, "")
                + (f", {r['label']}" if r.get("label") else ""))
       ax.plot(t, v.mean(1), "o-", ms=3, color=f"C{i}", label=label)
@@ -127,7 +128,7 @@ def plot(results: list[dict], path: str) -> list[str]:
     ax.set_xlabel("wall seconds from start (compilation and evaluations included)", fontsize=8)
     ax.set_ylabel(plots.curve_ylabel(key), fontsize=9)
     ax.set_title(f"{name} on {arms[0].get('env', 'ant')}", fontsize=10)
-    ax.legend(fontsize=7)
+    ax.legend(fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.2))  # below: no curve hidden
   seeds = len(results[0]["rows"][0]["values"]) if results and results[0]["rows"] else 1
   fig.text(0.5, 0.005, "one seed" if seeds == 1 else
            f"line: mean over {seeds} seeds, band: lowest to highest seed",

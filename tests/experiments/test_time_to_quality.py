@@ -23,15 +23,17 @@ def test_an_arm_trains_the_seeds_from_first_seed_with_the_papers_objective_setti
 
 
 def test_the_plot_names_each_arms_envs_batch_and_episode_starts(tmp_path):
-  def result(num_envs, staggered, values):
+  def result(num_envs, staggered, values, minibatches=None):
     rows = [{"wall_s": 10.0 * (i + 1), "env_steps": 1e6 * (i + 1), "values": v,
              "mean": sum(v) / len(v)} for i, v in enumerate(values)]
     return {"objective": "diayn", "env": "ant", "num_envs": num_envs, "label": "",
             "metric": "eval/mi", "threshold": 1.115, "rows": rows,
-            "ppo": {"batch_size": 1024, "starts_staggered": staggered}}
+            "ppo": {"batch_size": 1024, "starts_staggered": staggered,
+                    **({"num_minibatches": minibatches} if minibatches else {})}}
   path = tmp_path / "ttq.png"
-  labels = ttq.plot([result(16384, True, [[0.5], [1.2]]), result(2048, False, [[0.3], [0.9]]),
+  labels = ttq.plot([result(16384, True, [[0.5], [1.2]], minibatches=32),
+                     result(2048, False, [[0.3], [0.9]]),
                      {**result(4096, None, [[0.1]]), "label": "lr2"}], str(path))
-  assert labels == ["16,384 envs, batch 1,024, staggered starts",
+  assert labels == ["16,384 envs, batch 1,024 x 32, staggered starts",
                     "2,048 envs, batch 1,024, starts in step", "4,096 envs, batch 1,024, lr2"]
   assert path.stat().st_size > 10_000

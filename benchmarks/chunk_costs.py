@@ -1,0 +1,101 @@
+"""Where one chunk of a time-to-quality run goes: the training kernel, PPO's own evaluation
+episodes and the paper's evaluator, each timed alone on the device.
+
+    python benchmarks/chunk_costs.py [--objective diayn] [--num-envs 16384] [--repeats 3]
+        [--num-evals 20] [--steps 100000000] [--config JSON] [--env ant]
+
+The run is the one ``time_to_quality.py`` builds (the paper's objective settings and the env's PPO
+row with ``num_envs`` set, ``--config`` over it). ``training.train`` runs three jitted functions
+per chunk (vmapped over one seed): the chunk of PPO iterations, ``Trainer.evaluate`` (the
+deterministic episodes behind ``eval/episode_reward``) and, with an evaluator, the paper's metric
+(``blx.metrics.evaluator_for``). Each is compiled, then called ``--repeats`` times with
+``block_until_ready`` after each call; the table gives the median seconds per call and each
+part's share of their sum. Prints one JSON line last.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import sys
+import time
+
+import jax
+import numpy as np
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import common  # noqa: E402
+import time_to_quality  # noqa: E402
+
+from blx import training  # noqa: E402
+from blx.experiments import runs  # noqa: E402
+
+
+def time_calls(fn, args_for, repeats: int) -> tuple[float, list[float]]:
+  """Compile seconds and the wall seconds of each of ``repeats`` calls of ``fn(*args_for(i))``."""
+  t = time.perf_counter()
+  jax.block_until_ready(fn(*args_for(0)))
+  first = time.perf_counter() - t
+  times = []
+  for i in range(repeats):
+    t = time.perf_counter()
+    jax.block_until_ready(fn(*args_for(i + 1)))
+    times.append(time.perf_counter() - t)
+  return first, times
+
+
+def main():
+  parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+  parser.add_argument("--env", default="ant")
+  parser.add_argument("--objective", default="diayn", choices=sorted(time_to_quality.QUALITY))
+  parser.add_argument("--num-envs", type=int, default=16384)
+  parser.add_argument("--steps", type=int, default=100_000_000)
+  parser.add_argument("--num-evals", type=int, default=20)
+  parser.add_argument("--repeats", type=int, default=3)
+  parser.add_argument("--config", default=None, metavar="JSON",
+                      help="PPO settings over the row, e.g. '{\"batch_size\": 4096}'")
+  args = parser.parse_args()
+  if args.repeats < 1:
+    parser.error(f"--repeats must be at least 1, got {args.repeats}")
+  settings = json.loads(args.config) if args.config else {}
+  spec = time_to_quality.arm_spec(args.env, args.objective, args.num_envs, 1, args.steps,
+                                  args.num_evals, settings)
+  env, objective, config = runs.build(spec)
+  trainer = training.make_trainer(env, objective, config)
+  evaluator = runs.evaluator_for(env, objective)
+  params = training.policy_params
+  state = jax.jit(jax.vmap(trainer.init))(jax.random.PRNGKey(0)[None])
+  keys = lambda i: jax.random.PRNGKey(i)[None]  # noqa: E731
+
+  chunk = jax.jit(jax.vmap(trainer.chunk))
+  ppo_eval = jax.jit(jax.vmap(lambda s, k: trainer.evaluate(params(s), k)))
+  parts = [("training chunk", lambda s: chunk(s)[0], lambda i: (state,))]
+  parts.append(("PPO's evaluation episodes", ppo_eval, lambda i: (state, keys(i))))
+  if evaluator is not None:
+    paper_eval = jax.jit(jax.vmap(lambda s, k: evaluator(trainer.policy, params(s), k)))
+    parts.append(("the paper's evaluator", paper_eval, lambda i: (state, keys(i))))
+  rows = []
+  for name, fn, args_for in parts:
+    compile_s, times = time_calls(fn, args_for, args.repeats)
+    rows.append({"part": name, "first_call_s": compile_s, "seconds": float(np.median(times)),
+                 "all_s": times})
+  total = sum(r["seconds"] for r in rows)
+  for r in rows:
+    r["share"] = r["seconds"] / total
+  steps = trainer.iterations_per_chunk * trainer.env_steps_per_iteration
+  common.print_table(
+      f"; {args.env}, {args.objective}, {args.num_envs:,} envs, batch {config.batch_size:,} x "
+      f"{config.num_minibatches}, {trainer.iterations_per_chunk} iterations = {steps:,} env steps "
+      f"per chunk; median of {args.repeats} calls", rows,
+      [("part", "part", "s"), ("first call (compile) s", "first_call_s", ".1f"),
+       ("seconds per chunk", "seconds", ".3f"), ("share", "share", ".0%")])
+  print(json.dumps({"env": args.env, "objective": args.objective, "num_envs": args.num_envs,
+                    "batch_size": config.batch_size, "num_minibatches": config.num_minibatches,
+                    "env_steps_per_chunk": steps, "kernel_env_steps_per_s": steps / rows[0]["seconds"],
+                    "chunk_with_evaluations_s": total, "parts": rows,
+                    "device": jax.devices()[0].device_kind, "jax": jax.__version__}))
+
+
+if __name__ == "__main__":
+  main()
