@@ -1,16 +1,18 @@
 """Where one chunk of a time-to-quality run goes: the training kernel, PPO's own evaluation
-episodes and the paper's evaluator, each timed alone on the device.
+episodes and the paper's evaluator, each timed alone on the device, and the two evaluations
+together as ``training.train`` runs them.
 
     python benchmarks/chunk_costs.py [--objective diayn] [--num-envs 16384] [--repeats 3]
         [--num-evals 20] [--steps 100000000] [--config JSON] [--env ant]
 
 The run is the one ``time_to_quality.py`` builds (the paper's objective settings and the env's PPO
-row with ``num_envs`` set, ``--config`` over it). ``training.train`` runs three jitted functions
-per chunk (vmapped over one seed): the chunk of PPO iterations, ``Trainer.evaluate`` (the
-deterministic episodes behind ``eval/episode_reward``) and, with an evaluator, the paper's metric
-(``blx.metrics.evaluator_for``). Each is compiled, then called ``--repeats`` times with
-``block_until_ready`` after each call; the table gives the median seconds per call and each
-part's share of their sum. Prints one JSON line last.
+row with ``num_envs`` set, ``--config`` over it). Per chunk ``training.train`` runs the chunk of
+PPO iterations, then ``Trainer.evaluate`` (the deterministic episodes behind
+``eval/episode_reward``) and, with an evaluator, the paper's metric (``blx.metrics.evaluator_for``),
+their episodes stepped in one rollout (``training.evaluate_together``; before session 14 one after
+the other). Each part is compiled, then called ``--repeats`` times with ``block_until_ready`` after
+each call; the table gives the median seconds per call, and the share of a chunk as ``train`` runs
+it (the kernel and the evaluations together) for the parts it runs. Prints one JSON line last.
 """
 
 from __future__ import annotations
@@ -70,30 +72,36 @@ def main():
 
   chunk = jax.jit(jax.vmap(trainer.chunk))
   ppo_eval = jax.jit(jax.vmap(lambda s, k: trainer.evaluate(params(s), k)))
-  parts = [("training chunk", lambda s: chunk(s)[0], lambda i: (state,))]
-  parts.append(("PPO's evaluation episodes", ppo_eval, lambda i: (state, keys(i))))
+  # (name, function, its arguments for call i, whether train runs it per chunk)
+  parts = [("training chunk", lambda s: chunk(s)[0], lambda i: (state,), True)]
+  parts.append(("PPO's evaluation episodes" + (", alone" if evaluator else ""), ppo_eval,
+                lambda i: (state, keys(i)), evaluator is None))
   if evaluator is not None:
     paper_eval = jax.jit(jax.vmap(lambda s, k: evaluator(trainer.policy, params(s), k)))
-    parts.append(("the paper's evaluator", paper_eval, lambda i: (state, keys(i))))
+    both = training.evaluate_together(trainer, evaluator)
+    together = jax.jit(jax.vmap(lambda s, k, j: both(params(s), k, j)))
+    parts.append(("the paper's evaluator, alone", paper_eval, lambda i: (state, keys(i)), False))
+    parts.append(("both evaluations in one rollout", together,
+                  lambda i: (state, keys(i), keys(1000 + i)), True))
   rows = []
-  for name, fn, args_for in parts:
+  for name, fn, args_for, in_train in parts:
     compile_s, times = time_calls(fn, args_for, args.repeats)
     rows.append({"part": name, "first_call_s": compile_s, "seconds": float(np.median(times)),
-                 "all_s": times})
-  total = sum(r["seconds"] for r in rows)
+                 "all_s": times, "in_train": in_train})
+  total = sum(r["seconds"] for r in rows if r["in_train"])
   for r in rows:
-    r["share"] = r["seconds"] / total
+    r["share"] = f"{r['seconds'] / total:.0%}" if r["in_train"] else "-"
   steps = trainer.iterations_per_chunk * trainer.env_steps_per_iteration
   common.print_table(
       f"; {args.env}, {args.objective}, {args.num_envs:,} envs, batch {config.batch_size:,} x "
       f"{config.num_minibatches}, {trainer.iterations_per_chunk} iterations = {steps:,} env steps "
       f"per chunk; median of {args.repeats} calls", rows,
       [("part", "part", "s"), ("first call (compile) s", "first_call_s", ".1f"),
-       ("seconds per chunk", "seconds", ".3f"), ("share", "share", ".0%")])
+       ("seconds per chunk", "seconds", ".3f"), ("share of train's chunk", "share", "s")])
   print(json.dumps({"env": args.env, "objective": args.objective, "num_envs": args.num_envs,
                     "batch_size": config.batch_size, "num_minibatches": config.num_minibatches,
                     "env_steps_per_chunk": steps, "kernel_env_steps_per_s": steps / rows[0]["seconds"],
-                    "chunk_with_evaluations_s": total, "parts": rows,
+                    "train_chunk_s": total, "parts": rows,
                     "device": jax.devices()[0].device_kind, "jax": jax.__version__}))
 
 

@@ -6,7 +6,7 @@ from blx.envs.components import ComponentSpec, Termination, list_components, reg
 from blx.envs.composer import GLOBAL_OPTIONS, Scene, apply_edits, compose
 from blx.envs.env import Env, State
 from blx.envs.registry import create, env_params, get_desc, list_envs, register_env
-from blx.envs.rollout import alive_before, rollout
+from blx.envs.rollout import Episodes, alive_before, rollout, rollout_together
 from blx.envs.wrappers import (action_repeat, auto_reset, episode, episode_steps, resets_itself,
                                unwrap)
 
@@ -17,5 +17,5 @@ __all__ = [
     "Env", "State",
     "create", "env_params", "get_desc", "list_envs", "register_env",
     "action_repeat", "auto_reset", "episode", "episode_steps", "resets_itself", "unwrap",
-    "rollout", "alive_before",
+    "rollout", "alive_before", "Episodes", "rollout_together",
 ]

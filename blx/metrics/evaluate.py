@@ -7,9 +7,11 @@ one) x 10 episodes, the last 500 steps, 1000 bins over +-obs_scale per dimension
 drawn from U(-obs_scale, obs_scale)^d with seed 0; for D-min 10 episodes, every 10th of the last
 500 steps.
 
-Every ``*_evaluator`` returns a pure function ``(policy, params, key) -> metrics`` that is jit- and
-vmap-able (``blx.training.train(..., evaluate=...)`` vmaps it over seeds); ``policy`` is
-``policy(params, obs [N, O], z [N, Z] | None, key=..., deterministic=...) -> action``
+Every ``*_evaluator`` returns an ``Evaluator``: a pure function ``(policy, params, key) -> metrics``
+that is jit- and vmap-able (``blx.training.train(..., evaluate=...)`` vmaps it over seeds), whose
+``episodes`` hands its episodes over unrun so that they can be stepped beside others
+(``blx.envs.rollout_together``; ``train`` runs them with PPO's own evaluation episodes). ``policy``
+is ``policy(params, obs [N, O], z [N, Z] | None, key=..., deterministic=...) -> action``
 (``TrainResult.policy``) and ``params`` is what it acts with, a ``blx.training.PolicyParams``
 (the MI-max evaluator also reads ``params.objective`` to infer the skill for each goal).
 ``evaluate_mimax`` / ``evaluate_dmin`` call one directly.
@@ -17,6 +19,7 @@ vmap-able (``blx.training.train(..., evaluate=...)`` vmaps it over seeds); ``pol
 
 from __future__ import annotations
 
+import dataclasses
 from typing import Any, Callable
 
 import jax
@@ -28,8 +31,8 @@ from blx.metrics import particle
 from blx.objectives.base import Objective
 from blx.objectives.specs import DminSpec, MimaxSpec
 
-__all__ = ["rollout", "latents_for_evaluation", "eval_indices", "mimax_evaluator",
-           "dmin_evaluator", "mode_shares", "evaluate_mimax", "evaluate_dmin"]
+__all__ = ["rollout", "episode_batch", "Evaluator", "latents_for_evaluation", "eval_indices",
+           "mimax_evaluator", "dmin_evaluator", "mode_shares", "evaluate_mimax", "evaluate_dmin"]
 
 
 def rollout(env: Any, policy: Callable, params: dict, latents: jax.Array, key: jax.Array, *,
@@ -46,6 +49,19 @@ def rollout(env: Any, policy: Callable, params: dict, latents: jax.Array, key: j
   episode, so a fallen agent's later states are what it then does, not copies of the state it fell
   in.
   """
+  batch, shape = episode_batch(env, policy, params, latents, key,
+                               episodes_per_latent=episodes_per_latent,
+                               conditions_policy=conditions_policy, deterministic=deterministic,
+                               record=record)
+  return shape(envs_lib.rollout_together([batch])[0])
+
+
+def episode_batch(env: Any, policy: Callable, params: dict, latents: jax.Array, key: jax.Array, *,
+                  episodes_per_latent: int, conditions_policy: bool = True,
+                  deterministic: bool = False,
+                  record: Callable | None = None) -> tuple[envs_lib.Episodes, Callable]:
+  """The episodes of ``rollout`` (same arguments) handed over unrun, as ``blx.envs.Episodes``, and
+  the function that shapes their records ``[T, N, ...]`` into ``rollout``'s ``[L, M, T, ...]``."""
   steps = envs_lib.episode_steps(env, "rollout")  # also refuses an env that resets itself
   num_latents = latents.shape[0]
   n = num_latents * episodes_per_latent
@@ -57,11 +73,27 @@ def rollout(env: Any, policy: Callable, params: dict, latents: jax.Array, key: j
     return policy(params, obs, z if conditions_policy else None, key=step_key,
                   deterministic=deterministic)
 
+  def shape(out):
+    return jax.tree.map(  # [T, N, ...] -> [L, M, T, ...]
+        lambda x: jnp.swapaxes(x, 0, 1).reshape((num_latents, episodes_per_latent, steps)
+                                                + x.shape[2:]), out)
+
   record = record or (lambda state, action, next_state: next_state.obs)
-  _, out = envs_lib.rollout(env, act, state, steps, action_key, record)
-  return jax.tree.map(  # [T, N, ...] -> [L, M, T, ...]
-      lambda x: jnp.swapaxes(x, 0, 1).reshape((num_latents, episodes_per_latent, steps)
-                                              + x.shape[2:]), out)
+  return envs_lib.Episodes(env, state, act, record, action_key, steps), shape
+
+
+@dataclasses.dataclass(frozen=True)
+class Evaluator:
+  """One of the paper's evaluators. Called as ``(policy, params, key) -> metrics`` it runs its
+  episodes and scores them. ``episodes(policy, params, key) -> (blx.envs.Episodes, score)`` hands
+  the episodes over unrun, with ``score(records) -> metrics``, for a caller that steps them beside
+  other episodes of the same env (``blx.envs.rollout_together``): the metrics are the same."""
+
+  episodes: Callable[[Callable, Any, jax.Array], tuple[envs_lib.Episodes, Callable]]
+
+  def __call__(self, policy: Callable, params: Any, key: jax.Array) -> dict:
+    batch, score = self.episodes(policy, params, key)
+    return score(envs_lib.rollout_together([batch])[0])
 
 
 def latents_for_evaluation(objective: Objective, key: jax.Array, num_latents: int) -> jax.Array:
@@ -95,7 +127,7 @@ def _check_spec(objective: Objective, spec_type: type, helper: str) -> None:
 def mimax_evaluator(env: Any, objective: Objective, *, num_latents: int = 10,
                     episodes_per_latent: int = 10, last_steps: int = 500, bins: int = 1000,
                     num_goals: int = 10, coverage_cell: float = 1.0,
-                    deterministic: bool = False) -> Callable:
+                    deterministic: bool = False) -> Evaluator:
   """``(policy, params, key) -> metrics`` for an MI-max objective.
 
   The skill episodes (MI, H(s), coverage) and the goal episodes (LGR) run side by side in one
@@ -118,14 +150,16 @@ def mimax_evaluator(env: Any, objective: Objective, *, num_latents: int = 10,
                              maxval=scale)
   goal_obs = jnp.zeros((num_goals, obs_size)).at[:, indices].set(goals)
 
-  def evaluate(policy, params, key):
+  def episodes(policy, params, key):
     z_key, roll_key = jax.random.split(key)
     latents = latents_for_evaluation(objective, z_key, num_latents)
-    num = latents.shape[0]
     goal_latents = jax.vmap(infer_latent, (None, 0))(params.objective, goal_obs)
-    everything = rollout(env, policy, params, jnp.concatenate([latents, goal_latents]), roll_key,
-                         episodes_per_latent=episodes_per_latent,
-                         deterministic=deterministic)[..., indices]
+    batch, shape = episode_batch(env, policy, params, jnp.concatenate([latents, goal_latents]),
+                                 roll_key, episodes_per_latent=episodes_per_latent,
+                                 deterministic=deterministic)
+    return batch, lambda records: score(shape(records)[..., indices], latents.shape[0])
+
+  def score(everything, num):
     states = everything[:num, :, -last_steps:]  # [L, M, T, D]
     reached = everything[num:]
     labels = jnp.repeat(jnp.arange(num), states.shape[1] * states.shape[2])
@@ -144,11 +178,12 @@ def mimax_evaluator(env: Any, objective: Objective, *, num_latents: int = 10,
     out.update({f"eval/lgr_1d/{i}": lgr["lgr_1d"][k] for k, i in enumerate(indices)})
     return out
 
-  return evaluate
+  return Evaluator(episodes)
 
 
 def dmin_evaluator(env: Any, objective: Objective, *, num_episodes: int = 10,
-                   last_steps: int = 500, every: int = 10, deterministic: bool = False) -> Callable:
+                   last_steps: int = 500, every: int = 10,
+                   deterministic: bool = False) -> Evaluator:
   """``(policy, params, key) -> {"eval/energy_distance"}`` for a D-min objective: the energy
   distance between the policy's indexed states (``num_episodes`` episodes, every ``every``-th of
   the last ``last_steps`` steps, actions sampled unless ``deterministic``) and the target samples."""
@@ -157,17 +192,20 @@ def dmin_evaluator(env: Any, objective: Objective, *, num_episodes: int = 10,
   target = jnp.asarray(objective.spec.target.samples)[:, :len(indices)]
   means = objective.spec.target.means
 
-  def evaluate(policy, params, key):
-    states = rollout(env, policy, params, jnp.zeros((1, 0)), key,
-                     episodes_per_latent=num_episodes, conditions_policy=False,
-                     deterministic=deterministic)
+  def episodes(policy, params, key):
+    batch, shape = episode_batch(env, policy, params, jnp.zeros((1, 0)), key,
+                                 episodes_per_latent=num_episodes, conditions_policy=False,
+                                 deterministic=deterministic)
+    return batch, lambda records: score(shape(records))
+
+  def score(states):
     x = states[0, :, -last_steps:][:, ::every][..., indices]  # [episodes, samples, D]
     out = {"eval/energy_distance": particle.energy_distance(x.reshape(-1, len(indices)), target)}
     if means is not None and len(means) > 1:
       out.update(mode_shares(x, jnp.asarray(means)[:, :len(indices)]))
     return out
 
-  return evaluate
+  return Evaluator(episodes)
 
 
 def mode_shares(x: jax.Array, means: jax.Array) -> dict[str, jax.Array]:

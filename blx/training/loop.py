@@ -12,12 +12,13 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from blx import envs as envs_lib
 from blx.objectives.base import Objective
 from blx.training import checkpoint
 from blx.training.config import PPOConfig, check_seeds
-from blx.training.ppo import PolicyParams, TrainState, make_trainer, policy_params
+from blx.training.ppo import PolicyParams, Trainer, TrainState, make_trainer, policy_params
 
-__all__ = ["TrainResult", "train", "NonFiniteError"]
+__all__ = ["TrainResult", "train", "NonFiniteError", "evaluate_together"]
 
 
 class NonFiniteError(FloatingPointError):
@@ -56,6 +57,32 @@ def print_progress(row: dict) -> None:
         file=sys.stderr, flush=True)
 
 
+def evaluate_together(trainer: Trainer, evaluate: Callable | None
+                      ) -> Callable[[PolicyParams, jax.Array, jax.Array], dict]:
+  """``(params, key, evaluator_key) -> metrics``: PPO's evaluation (``trainer.evaluate``) and, if
+  given, ``evaluate(policy, params, evaluator_key)`` beside it, in one dict.
+
+  An evaluator that hands over its episodes (``blx.metrics.Evaluator``: the paper's) on the env
+  PPO evaluates on runs them in one rollout with PPO's episodes (``blx.envs.rollout_together``):
+  both evaluations are long chains of small steps, bound by their latency on a GPU, so together
+  they cost about one (``benchmarks/chunk_costs.py``). The metrics are those of each alone, up to
+  the rounding of batched arithmetic. Other evaluators run after PPO's.
+  """
+  def evaluate_all(params, key, evaluator_key):
+    if evaluate is None:
+      return trainer.evaluate(params, key)
+    episodes = getattr(evaluate, "episodes", None)
+    if episodes is not None:
+      ours, score = trainer.evaluation_episodes(params, key)
+      theirs, their_score = episodes(trainer.policy, params, evaluator_key)
+      if theirs.env is ours.env and theirs.steps == ours.steps:
+        ours_records, their_records = envs_lib.rollout_together([ours, theirs])
+        return {**score(ours_records), **their_score(their_records)}
+    return {**trainer.evaluate(params, key), **evaluate(trainer.policy, params, evaluator_key)}
+
+  return evaluate_all
+
+
 def train(env: Any, objective: Objective, config: PPOConfig, *, seeds: Sequence[int] = (0,),
           progress: bool | Callable[[dict], None] = True, checkpoint_dir: str | None = None,
           resume: bool = False, evaluate: Callable | None = None) -> TrainResult:
@@ -72,7 +99,8 @@ def train(env: Any, objective: Objective, config: PPOConfig, *, seeds: Sequence[
     resume: continue from the checkpoint in ``checkpoint_dir`` if there is one.
     evaluate: optional ``(policy, params, key) -> metrics`` run after every chunk beside PPO's
       evaluation (vmapped over seeds), e.g. ``blx.metrics.mimax_evaluator(env, objective)`` for
-      MI, H(s), LGR and coverage curves; off by default for speed.
+      MI, H(s), LGR and coverage curves; off by default for speed. The paper's evaluators on
+      ``env`` step their episodes in one rollout with PPO's (``evaluate_together``).
 
   Raises:
     NonFiniteError: a loss, a parameter or an observation became non-finite; the message names the
@@ -85,12 +113,10 @@ def train(env: Any, objective: Objective, config: PPOConfig, *, seeds: Sequence[
   eval_keys = jax.vmap(lambda k: jax.random.split(k)[1])(keys)
   init_fn = jax.jit(jax.vmap(trainer.init))
   chunk_fn = jax.jit(jax.vmap(trainer.chunk))
-  eval_fn = jax.jit(jax.vmap(lambda state, key: trainer.evaluate(policy_params(state), key)))
+  evaluate_all = evaluate_together(trainer, evaluate)
+  eval_fn = jax.jit(jax.vmap(lambda state, key, evaluator_key: evaluate_all(
+      policy_params(state), key, evaluator_key)))
   report = print_progress if progress is True else (progress or None)
-  extra_eval_fn = None
-  if evaluate is not None:
-    extra_eval_fn = jax.jit(jax.vmap(
-        lambda state, key: evaluate(trainer.policy, policy_params(state), key)))
 
   start_chunk, history, time_before = 0, [], 0.0
   # The checkpoint records staggered_starts resolved (None chooses by num_envs), as it ran.
@@ -121,9 +147,7 @@ def train(env: Any, objective: Objective, config: PPOConfig, *, seeds: Sequence[
   # ("time" in the metrics is the wall time since the start, compilation included).
   if start_chunk < trainer.num_chunks:  # (a finished run resumed has nothing to compile)
     chunk_fn = chunk_fn.lower(state).compile()
-    eval_fn = eval_fn.lower(state, eval_keys).compile()
-    if extra_eval_fn is not None:
-      extra_eval_fn = extra_eval_fn.lower(state, eval_keys).compile()
+    eval_fn = eval_fn.lower(state, eval_keys, eval_keys).compile()
   compile_seconds = time.time() - t0
 
   def dispatch(state, chunk):
@@ -131,12 +155,9 @@ def train(env: Any, objective: Objective, config: PPOConfig, *, seeds: Sequence[
     Runs on the dispatch thread, which may wait there for the device (on a GPU, loops whose end
     depends on the data, as MJX's solver's, are checked from the launching thread)."""
     state, metrics = chunk_fn(state)
-    evals = eval_fn(state, jax.vmap(jax.random.fold_in, (0, None))(eval_keys, chunk))
-    extra = None
-    if extra_eval_fn is not None:
-      extra = extra_eval_fn(state, jax.vmap(jax.random.fold_in, (0, None))(eval_keys,
-                                                                           1_000_003 + chunk))
-    return state, metrics, evals, extra
+    fold = jax.vmap(jax.random.fold_in, (0, None))
+    evals = eval_fn(state, fold(eval_keys, chunk), fold(eval_keys, 1_000_003 + chunk))
+    return state, metrics, evals
 
   # Chunks are dispatched from a second thread, so that the host checks, checkpoints and reports
   # chunk k while the device runs chunk k + 1 (JAX's asynchronous dispatch alone did not overlap
@@ -146,18 +167,16 @@ def train(env: Any, objective: Objective, config: PPOConfig, *, seeds: Sequence[
     pending = (dispatcher.submit(dispatch, state, start_chunk)
                if start_chunk < trainer.num_chunks else None)
     for chunk in range(start_chunk, trainer.num_chunks):
-      state, metrics, evals, extra = pending.result()
+      state, metrics, evals = pending.result()
       # The small results start for the host before the next chunk is queued behind them. A
       # chunk that fails the finite check raises below; the chunk queued after it is dropped.
-      for leaf in jax.tree.leaves((metrics, evals, extra)):
+      for leaf in jax.tree.leaves((metrics, evals)):
         leaf.copy_to_host_async()
       pending = (dispatcher.submit(dispatch, state, chunk + 1)
                  if chunk + 1 < trainer.num_chunks else None)
       metrics = jax.device_get(metrics)
       _check_finite(metrics, chunk * trainer.iterations_per_chunk, seeds, checkpoint_dir)
       evals = jax.device_get(evals)
-      if extra is not None:
-        evals = {**evals, **jax.device_get(extra)}
       env_steps = float(np.asarray(state.env_steps)[0])
       elapsed = time.time() - t0
       rate = (env_steps - steps0) / max(elapsed - compile_seconds, 1e-9)

@@ -96,6 +96,9 @@ class Trainer(NamedTuple):
     update: ``(TrainState, Rollout) -> (TrainState, metrics)``: the learning half (normaliser,
       PPO and objective losses, SGD). Profilers time the halves apart.
     evaluate: ``(PolicyParams, key) -> metrics`` from deterministic episodes on fresh envs.
+    evaluation_episodes: ``(PolicyParams, key) -> (blx.envs.Episodes, score)``: ``evaluate``'s
+      episodes unrun and ``score(records) -> metrics``, to step beside an evaluator's
+      (``blx.envs.rollout_together``); ``evaluate`` is ``score`` of their records.
     train: ``key -> (TrainState, metrics)``, the whole run: ``num_chunks`` chunks, each followed by an
       evaluation; metrics have a leading ``[num_chunks]`` axis.
     policy: ``(params: PolicyParams, obs, z=None, key=None, deterministic=True) -> action``.
@@ -106,6 +109,7 @@ class Trainer(NamedTuple):
   collect: Callable[[TrainState], tuple[TrainState, "Rollout"]]
   update: Callable[[TrainState, "Rollout"], tuple[TrainState, dict]]
   evaluate: Callable[[PolicyParams, jax.Array], dict]
+  evaluation_episodes: Callable[[PolicyParams, jax.Array], tuple[envs_lib.Episodes, Callable]]
   train: Callable[[jax.Array], tuple[TrainState, dict]]
   policy: Callable[..., jax.Array]
   num_chunks: int
@@ -393,6 +397,14 @@ def update(learner: Learner, state: TrainState, data: Rollout) -> tuple[TrainSta
 def evaluate(learner: Learner, env: Any, steps: int, params: PolicyParams, key: jax.Array) -> dict:
   """Episode totals of ``num_eval_envs`` deterministic episodes of ``env`` (no auto-reset), at most
   ``steps`` steps each: the objective's reward, the env's reward and its per-term metrics."""
+  batch, score = evaluation_episodes(learner, env, steps, params, key)
+  return score(envs_lib.rollout_together([batch])[0])
+
+
+def evaluation_episodes(learner: Learner, env: Any, steps: int, params: PolicyParams,
+                        key: jax.Array) -> tuple[envs_lib.Episodes, Callable[[Any], dict]]:
+  """``evaluate``'s episodes handed over unrun (``blx.envs.Episodes``), and ``score(records) ->
+  metrics``, so that the host loop can step them beside an evaluator's."""
   c, objective = learner.config, learner.objective
   policy = make_policy(learner.policy_net, c.normalize_observations, c.normalize_latent)
   reset_key, z_key = jax.random.split(key)
@@ -410,18 +422,21 @@ def evaluate(learner: Learner, env: Any, steps: int, params: PolicyParams, key: 
             **{f"eval/episode_{k}": v for k, v in next_state.metrics.items()}}
     return step, next_state.done
 
-  _, (per_step, done) = envs_lib.rollout(env, act, env_state, steps, jax.random.fold_in(key, 2),
-                                         record)
-  alive = envs_lib.alive_before(done)  # [T, N]: a step counts until its episode has ended
+  def score(records):
+    per_step, done = records
+    alive = envs_lib.alive_before(done)  # [T, N]: a step counts until its episode has ended
 
-  def total(x):  # the mean episode total: a scalar, or one per agent
-    return jnp.mean(jnp.sum(alive.reshape(alive.shape + (1,) * (x.ndim - 2)) * x, axis=0), axis=0)
-  out = jax.tree.map(total, per_step)
-  for key_ in [k for k, v in out.items() if v.ndim]:  # MAPPO: per-agent totals and their sum
-    per_agent = out.pop(key_)
-    out.update({f"{key_}/{a}": per_agent[i] for i, a in enumerate(learner.agent_names)})
-    out[key_] = per_agent.sum()
-  return out
+    def total(x):  # the mean episode total: a scalar, or one per agent
+      return jnp.mean(jnp.sum(alive.reshape(alive.shape + (1,) * (x.ndim - 2)) * x, axis=0),
+                      axis=0)
+    out = jax.tree.map(total, per_step)
+    for key_ in [k for k, v in out.items() if v.ndim]:  # MAPPO: per-agent totals and their sum
+      per_agent = out.pop(key_)
+      out.update({f"{key_}/{a}": per_agent[i] for i, a in enumerate(learner.agent_names)})
+      out[key_] = per_agent.sum()
+    return out
+
+  return envs_lib.Episodes(env, env_state, act, record, jax.random.fold_in(key, 2), steps), score
 
 
 def make_trainer(env: Any, objective: Objective, config: PPOConfig) -> Trainer:
@@ -490,6 +505,9 @@ def make_trainer(env: Any, objective: Objective, config: PPOConfig) -> Trainer:
   def evaluate_fn(params: PolicyParams, key: jax.Array) -> dict:
     return evaluate(learner, eval_env, eval_steps, params, key)
 
+  def evaluation_episodes_fn(params: PolicyParams, key: jax.Array):
+    return evaluation_episodes(learner, eval_env, eval_steps, params, key)
+
   def train(key: jax.Array):
     init_key, eval_key = jax.random.split(key)
     state = init(init_key)
@@ -503,8 +521,9 @@ def make_trainer(env: Any, objective: Objective, config: PPOConfig) -> Trainer:
 
   policy = make_policy(learner.policy_net, c.normalize_observations, c.normalize_latent)
   return Trainer(init=init, chunk=chunk, collect=collect_fn, update=update_fn,
-                 evaluate=evaluate_fn, train=train, policy=policy, num_chunks=num_chunks,
-                 iterations_per_chunk=iterations_per_chunk, config=c,
+                 evaluate=evaluate_fn, evaluation_episodes=evaluation_episodes_fn, train=train,
+                 policy=policy, num_chunks=num_chunks, iterations_per_chunk=iterations_per_chunk,
+                 config=c,
                  env_steps_per_iteration=env_steps_per_iteration)
 
 

@@ -8,6 +8,7 @@ from typing import NamedTuple
 import jax
 import jax.numpy as jnp
 import numpy as np
+import pytest
 
 from blx import envs
 from blx.envs.env import State
@@ -93,3 +94,37 @@ def test_render_holds_the_pose_an_episode_ended_in():
                         policy=lambda params, obs, z: jnp.zeros((obs.shape[0], 1)))
   qpos = render.rollout_qpos(run, None, jnp.zeros((2, 0)), jax.random.PRNGKey(0), steps=5)
   np.testing.assert_array_equal(qpos[..., 0], [[0, 1, 2, 2, 2, 2]] * 2)   # reset pose, then steps
+
+
+def test_batches_rolled_out_together_record_what_each_would_alone():
+  # Two evaluations of one env in one loop: each batch acts on its own envs' observations with its
+  # own per-step keys, so its records are those of envs.rollout on it alone.
+  env = _Counter(end=100.0)
+
+  def batch(n, key, scale):
+    state = jax.vmap(env.reset)(jax.random.split(jax.random.PRNGKey(n), n))
+    act = lambda obs, k: scale * jax.random.uniform(k, (obs.shape[0], 1)) + obs  # noqa: E731
+    return envs.Episodes(env, state, act, lambda s, a, nxt: (nxt.obs, a), key, 5)
+
+  a, b = batch(2, jax.random.PRNGKey(7), 1.0), batch(3, jax.random.PRNGKey(8), -10.0)
+  together = envs.rollout_together([a, b])
+  for one, records in zip((a, b), together):
+    _, alone = envs.rollout(env, one.act, one.state, one.steps, one.key, one.record)
+    assert records[0].shape == alone[0].shape
+    np.testing.assert_array_equal(records[0], alone[0])
+    np.testing.assert_array_equal(records[1], alone[1])
+  assert float(together[1][1].max()) <= 0.0 < float(together[0][1].min())  # acts kept apart
+
+
+def test_batches_run_together_only_on_one_env_for_one_length():
+  env = _Counter(end=100.0)
+  state = jax.vmap(env.reset)(jax.random.split(jax.random.PRNGKey(0), 2))
+  act = lambda obs, k: obs  # noqa: E731
+  record = lambda s, a, n: n.obs  # noqa: E731
+  first = envs.Episodes(env, state, act, record, jax.random.PRNGKey(0), 4)
+  with pytest.raises(ValueError, match="batch 1 runs 4 steps on .* share one env object"):
+    envs.rollout_together([first, first._replace(env=_Counter(end=100.0))])
+  with pytest.raises(ValueError, match="batch 1 runs 3 steps"):
+    envs.rollout_together([first, first._replace(steps=3)])
+  with pytest.raises(ValueError, match="no batches"):
+    envs.rollout_together([])
