@@ -60,7 +60,12 @@ def main():
   args = parser.parse_args()
   if args.repeats < 1:
     parser.error(f"--repeats must be at least 1, got {args.repeats}")
-  settings = json.loads(args.config) if args.config else {}
+  try:
+    settings = json.loads(args.config) if args.config else {}
+  except json.JSONDecodeError:
+    settings = None
+  if not isinstance(settings, dict):
+    parser.error(f"--config {args.config!r}: give a JSON object, e.g. '{{\"batch_size\": 4096}}'")
   spec = time_to_quality.arm_spec(args.env, args.objective, args.num_envs, 1, args.steps,
                                   args.num_evals, settings)
   env, objective, config = runs.build(spec)
@@ -100,8 +105,9 @@ def main():
        ("seconds per chunk", "seconds", ".3f"), ("share of train's chunk", "share", "s")])
   print(json.dumps({"env": args.env, "objective": args.objective, "num_envs": args.num_envs,
                     "batch_size": config.batch_size, "num_minibatches": config.num_minibatches,
-                    "env_steps_per_chunk": steps, "kernel_env_steps_per_s": steps / rows[0]["seconds"],
-                    "train_chunk_s": total, "parts": rows,
+                    "env_steps_per_chunk": steps,
+                    "kernel_env_steps_per_s": steps / rows[0]["seconds"], "train_chunk_s": total,
+                    "parts": rows,
                     "device": jax.devices()[0].device_kind, "jax": jax.__version__}))
 
 
