@@ -21,7 +21,6 @@ import argparse
 import json
 import os
 import sys
-import time
 
 import jax
 import numpy as np
@@ -32,19 +31,6 @@ import time_to_quality  # noqa: E402
 
 from blx import training  # noqa: E402
 from blx.experiments import runs  # noqa: E402
-
-
-def time_calls(fn, args_for, repeats: int) -> tuple[float, list[float]]:
-  """Compile seconds and the wall seconds of each of ``repeats`` calls of ``fn(*args_for(i))``."""
-  t = time.perf_counter()
-  jax.block_until_ready(fn(*args_for(0)))
-  first = time.perf_counter() - t
-  times = []
-  for i in range(repeats):
-    t = time.perf_counter()
-    jax.block_until_ready(fn(*args_for(i + 1)))
-    times.append(time.perf_counter() - t)
-  return first, times
 
 
 def main():
@@ -90,7 +76,7 @@ def main():
                   lambda i: (state, keys(i), keys(1000 + i)), True))
   rows = []
   for name, fn, args_for, in_train in parts:
-    compile_s, times = time_calls(fn, args_for, args.repeats)
+    compile_s, times = common.time_calls(fn, args_for, args.repeats)
     rows.append({"part": name, "first_call_s": compile_s, "seconds": float(np.median(times)),
                  "all_s": times, "in_train": in_train})
   total = sum(r["seconds"] for r in rows if r["in_train"])

@@ -1,7 +1,9 @@
-"""What the benchmark scripts share: raw ``mjx.step`` on an env's model, and their Markdown tables."""
+"""What the benchmark scripts share: raw ``mjx.step`` on an env's model, timing a jitted call, and
+their Markdown tables."""
 
 from __future__ import annotations
 
+import time
 from typing import Callable, Sequence
 
 import jax
@@ -27,6 +29,21 @@ def raw_physics_runner(env) -> Callable:
     return jax.lax.scan(one, data, actions)[1].sum()
 
   return run
+
+
+def time_calls(fn, args_for, repeats: int) -> tuple[float, list[float]]:
+  """Compile seconds and the wall seconds of each of ``repeats`` calls of ``fn(*args_for(i))``: a
+  first call (``i`` = 0, compile included) timed apart, then calls ``i`` = 1..repeats, each
+  waited for."""
+  t = time.perf_counter()
+  jax.block_until_ready(fn(*args_for(0)))
+  first = time.perf_counter() - t
+  times = []
+  for i in range(repeats):
+    t = time.perf_counter()
+    jax.block_until_ready(fn(*args_for(i + 1)))
+    times.append(time.perf_counter() - t)
+  return first, times
 
 
 def print_table(header: str, rows: Sequence[dict], columns: Sequence[tuple[str, str, str]],

@@ -17,13 +17,18 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
+import sys
 import tempfile
 import time
 
 import jax
 
-from blx import envs, training
-from blx.objectives import task
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import common  # noqa: E402
+
+from blx import envs, training  # noqa: E402
+from blx.objectives import task  # noqa: E402
 
 
 def main():
@@ -73,11 +78,8 @@ def main():
   # PPO's evaluation after each chunk runs on the same device stream, so train can at best take
   # kernel + evaluation per chunk.
   evaluate = jax.jit(jax.vmap(lambda s, k: trainer.evaluate(training.policy_params(s), k)))
-  jax.block_until_ready(evaluate(state, jax.random.PRNGKey(1)[None]))
-  t = time.perf_counter()
-  for i in range(3):
-    jax.block_until_ready(evaluate(state, jax.random.PRNGKey(2 + i)[None]))
-  eval_s = (time.perf_counter() - t) / 3
+  _, eval_times = common.time_calls(evaluate, lambda i: (state, jax.random.PRNGKey(1 + i)[None]), 3)
+  eval_s = sum(eval_times) / len(eval_times)
   chunk_s = config.env_steps_per_iteration * trainer.iterations_per_chunk / kernel_sps
   row = dict(env=args.env, num_envs=args.num_envs, batch_size=args.batch_size,
              iterations_per_chunk=trainer.iterations_per_chunk, chunks=trainer.num_chunks,

@@ -1,10 +1,12 @@
 """benchmarks/common.py: the one-iteration-per-chunk config that the timing benchmarks
-(train_throughput.py, profile_ppo.py) run a jitted chunk with."""
+(train_throughput.py, profile_ppo.py) run a jitted chunk with, and the timing of a jitted call
+(chunk_costs.py, host_loop.py)."""
 
 import importlib.util
 import pathlib
 import sys
 
+import jax.numpy as jnp
 import pytest
 
 from blx import training
@@ -34,3 +36,15 @@ def test_the_trainer_runs_one_iteration_per_chunk():
   config = common.one_iteration_per_chunk(training.ppo_defaults("point"), chunks=7)
   trainer = training.make_trainer(env, task(), config)
   assert (trainer.iterations_per_chunk, trainer.num_chunks) == (1, 7)
+
+
+def test_the_first_call_is_kept_apart_and_every_timed_call_gets_its_own_arguments():
+  seen = []
+
+  def fn(i):
+    seen.append(i)
+    return jnp.asarray(i)
+
+  first, times = common.time_calls(fn, lambda i: (i,), repeats=3)
+  assert seen == [0, 1, 2, 3]  # one untimed first call (the compile), then 3 timed ones
+  assert len(times) == 3 and first >= 0 and all(t >= 0 for t in times)
