@@ -4,12 +4,15 @@ cold, <= 10 s on a second run).
 
     python benchmarks/startup.py [--env ant] [--objective diayn] [--steps N]
                                  [--config num_envs=2048 ...] [--repeats 1]
+                                 [--compile-modes serial,parallel]
 
 Each arm is a fresh ``python -m blx.experiments.cli train`` process (so Python and JAX import
 costs are in every figure), with ``BLX_COMPILATION_CACHE`` set to ``off``, then to an empty
-directory (cold), then to that same directory again (warm). Printed per arm: seconds to the first
-progress line (compilation plus the first chunk), the compile seconds the run reports, and the
-whole command's wall time.
+directory (cold), then to that same directory again (warm). ``--compile-modes`` runs the arm
+without the cache once per mode (``BLX_PARALLEL_COMPILE`` 0 for ``serial``, 1 for ``parallel``;
+``default`` leaves it unset), side by side in one call; the cold and warm arms take the last mode.
+Printed per arm: seconds to the first progress line (compilation plus the first chunk), the
+compile seconds the run reports, and the whole command's wall time.
 """
 
 from __future__ import annotations
@@ -26,7 +29,10 @@ import time
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
 
-def run_once(args, cache: str, out: str) -> dict:
+MODES = {"serial": "0", "parallel": "1", "default": None}
+
+
+def run_once(args, cache: str, out: str, mode: str = "default") -> dict:
   cmd = [sys.executable, "-m", "blx.experiments.cli", "train", "--env", args.env, "--objective",
          args.objective, "--out", out]
   if args.steps:
@@ -35,6 +41,9 @@ def run_once(args, cache: str, out: str) -> dict:
     cmd += ["--config", item]
   env = {**os.environ, "BLX_COMPILATION_CACHE": cache, "PYTHONUNBUFFERED": "1",
          "PYTHONPATH": os.pathsep.join([ROOT, os.environ.get("PYTHONPATH", "")])}
+  env.pop("BLX_PARALLEL_COMPILE", None)
+  if MODES[mode] is not None:
+    env["BLX_PARALLEL_COMPILE"] = MODES[mode]
   start = time.time()
   proc = subprocess.Popen(cmd, stderr=subprocess.PIPE, stdout=subprocess.DEVNULL, text=True,
                           env=env)
@@ -62,15 +71,24 @@ def main():
   parser.add_argument("--steps", type=int, default=None)
   parser.add_argument("--config", action="append", metavar="KEY=VALUE")
   parser.add_argument("--repeats", type=int, default=1)
+  parser.add_argument("--compile-modes", default="default",
+                      help=f"comma list of {sorted(MODES)}: how the arm without the cache compiles "
+                      "(one arm each); the cached arms take the last")
   args = parser.parse_args()
+  modes = args.compile_modes.split(",")
+  bad = [m for m in modes if m not in MODES]
+  if bad:
+    parser.error(f"--compile-modes: {bad} not among {sorted(MODES)}")
   import jax
   results = []
   with tempfile.TemporaryDirectory() as tmp:
     for repeat in range(args.repeats):
       cache = os.path.join(tmp, f"cache{repeat}")  # empty: the "cold" arm fills it
-      arms = [("cache off", "off"), ("cold cache", cache), ("warm cache", cache)]
-      for i, (name, setting) in enumerate(arms):
-        r = run_once(args, setting, os.path.join(tmp, f"run{repeat}_{i}"))
+      arms = [(f"cache off, {mode} compile", "off", mode) for mode in modes]
+      arms += [(f"cold cache, {modes[-1]} compile", cache, modes[-1]),
+               (f"warm cache, {modes[-1]} compile", cache, modes[-1])]
+      for i, (name, setting, mode) in enumerate(arms):
+        r = run_once(args, setting, os.path.join(tmp, f"run{repeat}_{i}"), mode)
         results.append({"arm": name, **r})
         print(json.dumps(results[-1]), flush=True)
   print(f"\nblx train --env {args.env} --objective {args.objective} "

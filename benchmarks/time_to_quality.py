@@ -4,7 +4,7 @@ paper's MI (1.115) and GAIL on Ant the paper's energy distance (0.802), for seve
     python benchmarks/time_to_quality.py [--objectives diayn,gail] [--num-envs 2048,8192,16384,32768]
         [--seeds 4] [--first-seed 0] [--steps 60000000] [--budget-s 600] [--num-evals 40]
         [--config JSON] [--out DIR] [--env ant] [--threshold NAME=VALUE ...] [--quick-eval]
-        [--arm LABEL=JSON ...]
+        [--arm LABEL=JSON ...] [--compile-cache DIR|off]
 
 Every arm is one ``training.train`` with the paper's objective settings (those of
 ``paper_tables.py``: 8 DIAYN skills on the xy velocity, obs_scale 5, spectral norm; GAIL to the
@@ -41,6 +41,7 @@ sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import paper_tables  # noqa: E402
 
 from blx import training  # noqa: E402
+from blx.training.loop import parallel_compile_default  # noqa: E402
 from blx.experiments import plots, runs  # noqa: E402
 
 # objective -> (metric key, the paper's value, whether larger is better)
@@ -158,8 +159,18 @@ def main():
   parser.add_argument("--arm", action="append", default=[], metavar="LABEL=JSON",
                       help="a recipe run at every num_envs: PPO settings over --config, e.g. "
                       "'instep={\"staggered_starts\": false}' (repeatable)")
+  parser.add_argument("--compile-cache", default="off", metavar="DIR|off",
+                      help="JAX's persistent compilation cache in DIR, as `blx train` keeps it "
+                      "by default (run twice: cold, then warm); 'off' (the default) compiles "
+                      "everything, as sessions 9-14 measured")
   parser.add_argument("--out", default=None)
   args = parser.parse_args()
+  cache = None
+  if args.compile_cache.lower() != "off":
+    from blx.experiments import compile_cache
+    cache = compile_cache.enable(args.compile_cache)
+    if cache is None:
+      parser.error(f"--compile-cache {args.compile_cache!r}: the directory cannot be used")
   out = args.out or os.environ.get("OUT") or os.path.join("benchmarks", "ttq")
   os.makedirs(out, exist_ok=True)
   config = json.loads(args.config) if args.config else {}
@@ -202,7 +213,9 @@ def main():
       else f"seed {args.first_seed}"
   lines = [f"{args.env}, {seeds}, up to {args.steps:,} steps or "
            f"{args.budget_s:.0f} s per arm; jax {jax.__version__} on "
-           f"{jax.devices()[0].device_kind}; PPO overrides {config or 'none'}", "",
+           f"{jax.devices()[0].device_kind}; PPO overrides {config or 'none'}; compilation "
+           f"cache {cache or 'off'}; compiled in parallel: {parallel_compile_default()}",
+           "",
            "| objective | num_envs | batch | recipe | time to quality (s) | env steps then | "
            "per-seed times (s) | best mean | compile (s) |",
            "| --- | ---: | ---: | --- | ---: | ---: | --- | ---: | ---: |"]

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import concurrent.futures
 import dataclasses
+import os
 import sys
 import time
 from typing import Any, Callable, NamedTuple, Sequence
@@ -18,7 +19,8 @@ from blx.training import checkpoint
 from blx.training.config import PPOConfig, check_seeds
 from blx.training.ppo import PolicyParams, Trainer, TrainState, make_trainer, policy_params
 
-__all__ = ["TrainResult", "train", "NonFiniteError", "evaluate_together"]
+__all__ = ["TrainResult", "train", "NonFiniteError", "evaluate_together", "compile_all",
+           "parallel_compile_default"]
 
 
 class NonFiniteError(FloatingPointError):
@@ -85,7 +87,8 @@ def evaluate_together(trainer: Trainer, evaluate: Callable | None
 
 def train(env: Any, objective: Objective, config: PPOConfig, *, seeds: Sequence[int] = (0,),
           progress: bool | Callable[[dict], None] = True, checkpoint_dir: str | None = None,
-          resume: bool = False, evaluate: Callable | None = None) -> TrainResult:
+          resume: bool = False, evaluate: Callable | None = None,
+          parallel_compile: bool | None = None) -> TrainResult:
   """Trains ``objective`` on ``env`` with PPO for every seed in one vmapped program.
 
   Args:
@@ -101,6 +104,9 @@ def train(env: Any, objective: Objective, config: PPOConfig, *, seeds: Sequence[
       evaluation (vmapped over seeds), e.g. ``blx.metrics.mimax_evaluator(env, objective)`` for
       MI, H(s), LGR and coverage curves; off by default for speed. The paper's evaluators on
       ``env`` step their episodes in one rollout with PPO's (``evaluate_together``).
+    parallel_compile: compile the chunk and the evaluation at the same time, each in a thread of
+      its own (``compile_all``). None (the default) decides by ``$BLX_PARALLEL_COMPILE`` (``1``
+      or ``0``), else by the host: on where it has at least 8 cores.
 
   Raises:
     NonFiniteError: a loss, a parameter or an observation became non-finite; the message names the
@@ -146,8 +152,9 @@ def train(env: Any, objective: Objective, config: PPOConfig, *, seeds: Sequence[
   # Compiled ahead of the first chunk, so that the reported steps/s and ETA leave compilation out
   # ("time" in the metrics is the wall time since the start, compilation included).
   if start_chunk < trainer.num_chunks:  # (a finished run resumed has nothing to compile)
-    chunk_fn = chunk_fn.lower(state).compile()
-    eval_fn = eval_fn.lower(state, eval_keys, eval_keys).compile()
+    chunk_fn, eval_fn = compile_all(
+        [lambda: chunk_fn.lower(state), lambda: eval_fn.lower(state, eval_keys, eval_keys)],
+        parallel=parallel_compile)
   compile_seconds = time.time() - t0
 
   def dispatch(state, chunk):
@@ -206,6 +213,45 @@ def train(env: Any, objective: Objective, config: PPOConfig, *, seeds: Sequence[
     dispatcher.shutdown(wait=False, cancel_futures=True)
 
   return TrainResult(params=policy_params(state), metrics=history, policy=trainer.policy, state=state)
+
+
+PARALLEL_COMPILE_ENV = "BLX_PARALLEL_COMPILE"
+_PARALLEL_COMPILE_MIN_CORES = 8
+
+
+def parallel_compile_default() -> bool:
+  """Whether ``train`` compiles its programs in parallel when not told: ``$BLX_PARALLEL_COMPILE``
+  (``1``/``on``/``true`` or ``0``/``off``/``false``) if set, else whether the host has at least 8
+  cores. On 2 cores it did not pay (benchmarks/RESULTS.md, session 12): XLA's compiler already
+  uses both."""
+  setting = os.environ.get(PARALLEL_COMPILE_ENV, "").strip().lower()
+  if setting in ("1", "on", "true", "yes"):
+    return True
+  if setting in ("0", "off", "false", "no"):
+    return False
+  if setting:
+    raise ValueError(f"${PARALLEL_COMPILE_ENV}={setting!r}: valid values are 1/on/true and "
+                     "0/off/false (unset: on where the host has at least "
+                     f"{_PARALLEL_COMPILE_MIN_CORES} cores)")
+  return (os.cpu_count() or 1) >= _PARALLEL_COMPILE_MIN_CORES
+
+
+def compile_all(lowerings: Sequence[Callable[[], Any]], *, parallel: bool | None = None) -> list:
+  """Each ``lowering() -> jax.stages.Lowered`` compiled; the compiled programs, in order.
+
+  In parallel, each program compiles in a thread of its own as soon as it is lowered, while the
+  next one is traced and lowered on this thread: tracing holds Python's lock, but XLA's compiler
+  runs outside it, so program k compiles while program k + 1 is traced and all compile at once.
+  Otherwise one after the other. ``parallel=None``: :func:`parallel_compile_default`.
+  """
+  if parallel is None:
+    parallel = parallel_compile_default()
+  if not parallel or len(lowerings) < 2:
+    return [lowering().compile() for lowering in lowerings]
+  with concurrent.futures.ThreadPoolExecutor(len(lowerings),
+                                             thread_name_prefix="blx-compile") as pool:
+    futures = [pool.submit(lowering().compile) for lowering in lowerings]
+    return [future.result() for future in futures]
 
 
 def restore_state(directory: str, like: TrainState) -> tuple[TrainState, dict]:
