@@ -32,7 +32,8 @@ from blx.objectives.base import Objective
 from blx.objectives.specs import DminSpec, MimaxSpec
 
 __all__ = ["rollout", "episode_batch", "Evaluator", "latents_for_evaluation", "eval_indices",
-           "mimax_evaluator", "dmin_evaluator", "mode_shares", "evaluate_mimax", "evaluate_dmin"]
+           "mimax_evaluator", "dmin_evaluator", "mode_shares", "alive_share", "evaluate_mimax",
+           "evaluate_dmin"]
 
 
 def rollout(env: Any, policy: Callable, params: dict, latents: jax.Array, key: jax.Array, *,
@@ -138,7 +139,10 @@ def mimax_evaluator(env: Any, objective: Objective, *, num_latents: int = 10,
     (paper Algorithm 1, 1000 bins over [-s, s]) averaged over dims, and per dim
     ``eval/mi_1d/<obs index>``; ``eval/mi_2d``: the 2-D estimate (30 x 30 bins) of the first two
     dims; ``eval/lgr`` and ``eval/lgr_1d/<obs index>`` (Algorithm 2, goals ~ U(-s, s)^d, seed 0);
-    ``eval/coverage``: distinct unit cells of the first two dims visited (all skills together).
+    ``eval/coverage``: distinct unit cells of the first two dims visited (all skills together);
+    ``eval/alive_share``: the share of the skill episodes' scored states (the last
+    ``last_steps``) taken before their episode ended (a fall). The other metrics count every
+    state, as Braxlines' do; this one says how many of them a fallen body gave.
   """
   _check_spec(objective, MimaxSpec, "mimax_evaluator")
   indices = np.asarray(eval_indices(objective))
@@ -156,10 +160,11 @@ def mimax_evaluator(env: Any, objective: Objective, *, num_latents: int = 10,
     goal_latents = jax.vmap(infer_latent, (None, 0))(params.objective, goal_obs)
     batch, shape = episode_batch(env, policy, params, jnp.concatenate([latents, goal_latents]),
                                  roll_key, episodes_per_latent=episodes_per_latent,
-                                 deterministic=deterministic)
-    return batch, lambda records: score(shape(records)[..., indices], latents.shape[0])
+                                 deterministic=deterministic, record=_obs_and_done)
+    return batch, lambda records: score(*shape(records), latents.shape[0])
 
-  def score(everything, num):
+  def score(obs, done, num):
+    everything = obs[..., indices]
     states = everything[:num, :, -last_steps:]  # [L, M, T, D]
     reached = everything[num:]
     labels = jnp.repeat(jnp.arange(num), states.shape[1] * states.shape[2])
@@ -173,6 +178,7 @@ def mimax_evaluator(env: Any, objective: Objective, *, num_latents: int = 10,
       out["eval/mi_2d"] = particle.mutual_information_2d(
           flat[:, :2], labels, bins=30, value_range=value_range, num_labels=num)["mi"]
       out["eval/coverage"] = particle.state_coverage(flat[:, :2], cell=coverage_cell)
+    out["eval/alive_share"] = alive_share(done[:num], last_steps)
     lgr = particle.latent_goal_reaching(reached, goals, last_steps=last_steps)
     out["eval/lgr"] = lgr["lgr"]
     out.update({f"eval/lgr_1d/{i}": lgr["lgr_1d"][k] for k, i in enumerate(indices)})
@@ -186,7 +192,10 @@ def dmin_evaluator(env: Any, objective: Objective, *, num_episodes: int = 10,
                    deterministic: bool = False) -> Evaluator:
   """``(policy, params, key) -> {"eval/energy_distance"}`` for a D-min objective: the energy
   distance between the policy's indexed states (``num_episodes`` episodes, every ``every``-th of
-  the last ``last_steps`` steps, actions sampled unless ``deterministic``) and the target samples."""
+  the last ``last_steps`` steps, actions sampled unless ``deterministic``) and the target samples,
+  with ``eval/mode_share/k`` (``mode_shares``) for a target of several modes and
+  ``eval/alive_share`` (as in ``mimax_evaluator``: the share of the scored states taken before
+  their episode ended)."""
   _check_spec(objective, DminSpec, "dmin_evaluator")
   indices = np.asarray(objective.spec.obs_indices)
   target = jnp.asarray(objective.spec.target.samples)[:, :len(indices)]
@@ -195,17 +204,31 @@ def dmin_evaluator(env: Any, objective: Objective, *, num_episodes: int = 10,
   def episodes(policy, params, key):
     batch, shape = episode_batch(env, policy, params, jnp.zeros((1, 0)), key,
                                  episodes_per_latent=num_episodes, conditions_policy=False,
-                                 deterministic=deterministic)
-    return batch, lambda records: score(shape(records))
+                                 deterministic=deterministic, record=_obs_and_done)
+    return batch, lambda records: score(*shape(records))
 
-  def score(states):
+  def score(states, done):
     x = states[0, :, -last_steps:][:, ::every][..., indices]  # [episodes, samples, D]
-    out = {"eval/energy_distance": particle.energy_distance(x.reshape(-1, len(indices)), target)}
+    out = {"eval/energy_distance": particle.energy_distance(x.reshape(-1, len(indices)), target),
+           "eval/alive_share": alive_share(done[0], last_steps, every)}
     if means is not None and len(means) > 1:
       out.update(mode_shares(x, jnp.asarray(means)[:, :len(indices)]))
     return out
 
   return Evaluator(episodes)
+
+
+def _obs_and_done(state, action, next_state):
+  return next_state.obs, next_state.done
+
+
+def alive_share(done: jax.Array, last_steps: int, every: int = 1) -> jax.Array:
+  """The share of scored states taken before their episode ended: ``done [..., T]`` (the env's
+  done flag after each step, episodes on the leading axes), the states scored being every
+  ``every``-th of the last ``last_steps`` steps. The step that ends an episode still counts (its
+  state is the one the episode ended in); the steps after it do not. 1.0 when no episode ends."""
+  alive = envs_lib.alive_before(jnp.moveaxis(done.astype(jnp.float32), -1, 0))
+  return jnp.moveaxis(alive, 0, -1)[..., -last_steps:][..., ::every].mean()
 
 
 def mode_shares(x: jax.Array, means: jax.Array) -> dict[str, jax.Array]:

@@ -147,6 +147,37 @@ def test_rollout_goes_on_after_termination_as_braxlines():
                     jax.random.PRNGKey(0), episodes_per_latent=2, conditions_policy=False)
 
 
+def test_alive_share_counts_the_scored_states_before_each_episodes_end():
+  done = jnp.array([[0, 0, 1, 1, 1, 1],    # ends at step 2: steps 0-2 count, 3-5 come after
+                    [0, 0, 0, 0, 0, 0]])   # never ends
+  # The last 4 steps (2..5): episode 0 has 1 of 4 before its end, episode 1 all 4: 5 / 8.
+  np.testing.assert_allclose(metrics.alive_share(done, 4), 5 / 8)
+  # Every 2nd of them (steps 2 and 4): 1 of 2 and 2 of 2.
+  np.testing.assert_allclose(metrics.alive_share(done, 4, 2), 3 / 4)
+  np.testing.assert_allclose(metrics.alive_share(jnp.zeros((3, 5)), 5), 1.0)
+
+
+def test_both_evaluators_say_how_many_scored_states_came_after_a_fall():
+  # _Falls ends every episode at its third step and steps on (as Braxlines' evaluation does): of
+  # the last 4 of 6 steps only the first (the step that ended the episode) is before the end.
+  env = envs.episode(_Falls(), 6)
+  still = lambda params, obs, z=None, **_: jnp.zeros((obs.shape[0], 1))
+  gail = objectives.gail(obs_indices=(0,), obs_scale=8.0)
+  out = metrics.evaluate_dmin(env, gail, Hand(gain=0.0), jax.random.PRNGKey(0), policy=still,
+                              num_episodes=2, last_steps=4, every=1)
+  np.testing.assert_allclose(out["eval/alive_share"], 0.25)
+  gcrl = objectives.gcrl(obs_indices=(0,), obs_scale=5.0)
+  out = metrics.evaluate_mimax(env, gcrl, Hand(gain=0.0), jax.random.PRNGKey(0), policy=still,
+                               num_latents=3, episodes_per_latent=2, last_steps=4, num_goals=2)
+  np.testing.assert_allclose(out["eval/alive_share"], 0.25)
+  # The point mass never ends an episode early: every scored state counts.
+  env = point(50)
+  out = metrics.evaluate_mimax(env, objectives.gcrl(obs_indices="pos_xy", env=env, obs_scale=5.0),
+                               Hand(gain=2.0), jax.random.PRNGKey(0), policy=go_to,
+                               num_latents=2, episodes_per_latent=1, last_steps=10)
+  assert out["eval/alive_share"] == 1.0
+
+
 def test_a_new_family_plugs_in_through_one_registration(monkeypatch):
   # A toy objective family: its own spec type, one registration, and runs find its evaluator and
   # table columns without any change in training, runs, sweeps, plots or the CLI.
