@@ -19,6 +19,9 @@
 # run directory to $OUT (the checkpoint cut with `split -b 15m`, as a file may be at most 16 MiB),
 # and start the next call by restoring it and giving the same command: sweeps, paper_tables.py and
 # `blx train --resume DIR` continue from the checkpoint. Each resume starts the envs on new episodes.
+# A run that stays on one machine can keep the envs' state (the default) and shed it once done, so
+# that its parameters come back for evaluation and plots:
+#   python3 -c "from blx import training; training.drop_env_state('RUN_DIR/checkpoint')"
 set -u
 if [ $# -eq 0 ]; then
   echo "usage: DEADLINE_S=560 bash benchmarks/on_gpus.sh \"queue of GPU 0\" [\"queue of GPU 1\" ...]" >&2

@@ -1,13 +1,13 @@
 """blx.training — one PPO: pure train step (jit, vmap over seeds, sharded) and its host loop."""
 
 from blx.training.config import PPOConfig, check_seeds, ppo_defaults
-from blx.training.loop import (NonFiniteError, TrainResult, evaluate_together, print_progress,
-                               restore_state, train)
+from blx.training.loop import (NonFiniteError, TrainResult, drop_env_state, evaluate_together,
+                               print_progress, restore_state, train)
 from blx.training.losses import clipped_surrogate, gae
 from blx.training.ppo import (Params, PolicyParams, Trainer, TrainState, make_policy, make_train,
                               make_trainer, policy_params)
 
 __all__ = ["PPOConfig", "ppo_defaults", "check_seeds", "NonFiniteError", "TrainResult", "train",
-           "evaluate_together", "print_progress", "restore_state",
+           "evaluate_together", "print_progress", "restore_state", "drop_env_state",
            "clipped_surrogate", "gae", "Params", "PolicyParams", "policy_params", "Trainer", "TrainState", "make_policy",
            "make_train", "make_trainer"]

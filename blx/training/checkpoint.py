@@ -16,12 +16,12 @@ import glob
 import json
 import os
 import zipfile
-from typing import Any
+from typing import Any, Callable
 
 import jax
 import numpy as np
 
-__all__ = ["CheckpointError", "save", "restore", "exists", "read_meta", "path"]
+__all__ = ["CheckpointError", "save", "rewrite", "restore", "exists", "read_meta", "path"]
 
 FILE = "checkpoint.npz"
 _META_KEY = "__meta__"
@@ -60,11 +60,31 @@ def _keyed_leaves(tree: Any) -> list[tuple[str, Any]]:
 def save(directory: str, tree: Any, meta: dict) -> None:
   """Writes ``tree``'s leaves (keyed by pytree path) and ``meta`` (JSON-able) as one file, atomically.
   """
-  os.makedirs(directory, exist_ok=True)
-  _clean_temporaries(directory)
   arrays = {key: np.asarray(x) for key, x in _keyed_leaves(jax.device_get(tree))}
   if _META_KEY in arrays or len(arrays) != len(jax.tree.leaves(tree)):
     raise ValueError("checkpoint.save: the state's pytree paths are not unique")
+  _write(directory, arrays, meta)
+
+
+def rewrite(directory: str, *, keep: Callable[[str], bool], meta_update: dict) -> None:
+  """Writes the checkpoint in ``directory`` again, atomically, with only the arrays whose pytree
+  path (``.params.policy...``) ``keep`` accepts and its metadata updated by ``meta_update``.
+  The checkpoint before it stays whole until the new one is in place."""
+  file = path(directory)
+  if not os.path.exists(file):
+    if _legacy(directory):
+      raise CheckpointError(f"checkpoint in {directory} is of the old two-file format "
+                            f"({_LEGACY_DATA} + {_LEGACY_META}), which keys its arrays by position; "
+                            "resume the run once to write it in the current format")
+    raise CheckpointError(f"no checkpoint at {file}")
+  arrays, meta = _open(directory)
+  _write(directory, {k: v for k, v in arrays.items() if keep(k)}, {**meta, **meta_update})
+
+
+def _write(directory: str, arrays: dict[str, np.ndarray], meta: dict) -> None:
+  os.makedirs(directory, exist_ok=True)
+  _clean_temporaries(directory)
+  arrays = dict(arrays)
   arrays[_META_KEY] = np.frombuffer(json.dumps(meta, sort_keys=True).encode(), np.uint8)
   tmp = os.path.join(directory, f".{FILE}.{os.getpid()}.tmp")
   with open(tmp, "wb") as f:

@@ -330,6 +330,27 @@ def test_a_checkpoint_without_env_state_is_smaller_and_a_run_resumes_from_it(tmp
   assert all(np.isfinite(np.asarray(x)).all() for x in after)
 
 
+def test_dropping_the_env_state_keeps_the_rest_and_the_run_resumes(tmp_path):
+  env = envs.create("point", episode_length=20)
+  config = SMALL.replace(num_evals=2)  # checkpoint_env_state on, the default
+  directory = str(tmp_path / "ckpt")
+  _stop_after_first_chunk(env, config, directory)
+  whole, whole_meta = training.restore_state(directory, _like(env, config))
+  size = os.path.getsize(checkpoint.path(directory))
+  training.drop_env_state(directory)
+  light, meta = training.restore_state(directory, _like(env, config))
+  assert light.env_state is None and whole.env_state is not None
+  assert meta == {**whole_meta, "env_state": False}
+  for a, b in zip(jax.tree.leaves(whole.replace(env_state=None)), jax.tree.leaves(light)):
+    np.testing.assert_array_equal(a, b)
+  assert os.path.getsize(checkpoint.path(directory)) < size
+  result = training.train(env, reach_latent(), config, progress=False, checkpoint_dir=directory,
+                          resume=True)
+  assert len(result.metrics) == 2 and checkpoint.read_meta(directory)["env_state"] is True
+  with pytest.raises(checkpoint.CheckpointError, match="no checkpoint at"):
+    training.drop_env_state(str(tmp_path / "nothing"))
+
+
 def _stop_after_first_chunk(env, config, directory):
   """Trains until the first chunk's checkpoint is written, then interrupts as Ctrl-C would."""
   def stop(row):
