@@ -36,14 +36,13 @@ def test_round_trip_keeps_values_and_metadata(tmp_path):
   assert os.listdir(d) == [checkpoint.FILE]   # one file, nothing else
 
 
-@pytest.mark.parametrize("crash_at", ["writing", "before_rename", "after_rename"])
-def test_a_crash_anywhere_in_a_write_leaves_one_whole_checkpoint(tmp_path, monkeypatch, crash_at):
-  d = str(tmp_path)
-  checkpoint.save(d, OLD, {"chunk": 1})
+class Crash(Exception):
+  pass
 
-  class Crash(Exception):
-    pass
 
+def _crash_writes(monkeypatch, crash_at):
+  """The next checkpoint write dies ``crash_at``: while writing the file, before or after the
+  rename that puts it in place."""
   real_savez, real_replace = np.savez, os.replace
 
   def savez(f, **arrays):
@@ -61,6 +60,13 @@ def test_a_crash_anywhere_in_a_write_leaves_one_whole_checkpoint(tmp_path, monke
 
   monkeypatch.setattr(checkpoint.np, "savez", savez)
   monkeypatch.setattr(checkpoint.os, "replace", replace)
+
+
+@pytest.mark.parametrize("crash_at", ["writing", "before_rename", "after_rename"])
+def test_a_crash_anywhere_in_a_write_leaves_one_whole_checkpoint(tmp_path, monkeypatch, crash_at):
+  d = str(tmp_path)
+  checkpoint.save(d, OLD, {"chunk": 1})
+  _crash_writes(monkeypatch, crash_at)
   with pytest.raises(Crash):
     checkpoint.save(d, NEW, {"chunk": 2})
   monkeypatch.undo()
@@ -68,6 +74,26 @@ def test_a_crash_anywhere_in_a_write_leaves_one_whole_checkpoint(tmp_path, monke
   assert _restored(d) == expected              # old or new, never a mix
   checkpoint.save(d, NEW, {"chunk": 2})        # the next save removes the dead writer's temporary
   assert _restored(d) == (10.0, 2, 2) and not _temporaries(d)
+
+
+@pytest.mark.parametrize("crash_at", ["writing", "before_rename"])
+def test_a_crash_in_a_rewrite_leaves_the_whole_checkpoint(tmp_path, monkeypatch, crash_at):
+  d = str(tmp_path)
+  whole = {**OLD, "extra": np.ones(2, np.float32)}
+  checkpoint.save(d, whole, {"chunk": 1})
+  drop_extra = dict(keep=lambda key: "extra" not in key, meta_update={"light": True})
+  _crash_writes(monkeypatch, crash_at)
+  with pytest.raises(Crash):
+    checkpoint.rewrite(d, **drop_extra)
+  monkeypatch.undo()
+  tree, meta = checkpoint.restore(d, whole)    # as it was, extra array and all
+  np.testing.assert_array_equal(tree["extra"], whole["extra"])
+  assert meta == {"chunk": 1}
+  checkpoint.rewrite(d, **drop_extra)
+  assert _restored(d) == (0.0, 1, 1) and not _temporaries(d)
+  assert checkpoint.read_meta(d) == {"chunk": 1, "light": True}
+  with pytest.raises(CheckpointError, match="unexpected|missing"):
+    checkpoint.restore(d, whole)               # the extra array is gone
 
 
 def test_damaged_and_foreign_checkpoints_are_named_errors(tmp_path):
@@ -93,6 +119,8 @@ def test_checkpoints_of_the_two_file_format_are_still_read(tmp_path):
   with open(os.path.join(d, "meta.json"), "w") as f:
     json.dump({"chunk": 1, "num_leaves": 2}, f)
   assert checkpoint.exists(d) and _restored(d) == (0.0, 1, 1)
+  with pytest.raises(CheckpointError, match="old two-file format"):   # keyed by position only
+    checkpoint.rewrite(d, keep=lambda key: True, meta_update={})
   with open(os.path.join(d, "meta.json"), "w") as f:   # data and metadata from different saves
     json.dump({"chunk": 2, "num_leaves": 3}, f)
   with pytest.raises(CheckpointError, match="from different saves"):
