@@ -32,8 +32,8 @@ from blx.objectives.base import Objective
 from blx.objectives.specs import DminSpec, MimaxSpec
 
 __all__ = ["rollout", "episode_batch", "Evaluator", "latents_for_evaluation", "eval_indices",
-           "mimax_evaluator", "dmin_evaluator", "mode_shares", "alive_share", "evaluate_mimax",
-           "evaluate_dmin"]
+           "mimax_evaluator", "dmin_evaluator", "mode_shares", "alive_share", "alive_mask",
+           "evaluate_mimax", "evaluate_dmin"]
 
 
 def rollout(env: Any, policy: Callable, params: dict, latents: jax.Array, key: jax.Array, *,
@@ -143,6 +143,9 @@ def mimax_evaluator(env: Any, objective: Objective, *, num_latents: int = 10,
     ``eval/alive_share``: the share of the skill episodes' scored states (the last
     ``last_steps``) taken before their episode ended (a fall). The other metrics count every
     state, as Braxlines' do; this one says how many of them a fallen body gave.
+    ``eval/mi_alive``, ``eval/entropy_alive``: diagnostics, not the protocol's metrics: MI and
+    H(s) of those states alone (a skill whose every scored state came after its falls drops out),
+    which tell how much of a low MI the states after the falls account for.
   """
   _check_spec(objective, MimaxSpec, "mimax_evaluator")
   indices = np.asarray(eval_indices(objective))
@@ -178,7 +181,12 @@ def mimax_evaluator(env: Any, objective: Objective, *, num_latents: int = 10,
       out["eval/mi_2d"] = particle.mutual_information_2d(
           flat[:, :2], labels, bins=30, value_range=value_range, num_labels=num)["mi"]
       out["eval/coverage"] = particle.state_coverage(flat[:, :2], cell=coverage_cell)
-    out["eval/alive_share"] = alive_share(done[:num], last_steps)
+    alive = alive_mask(done[:num], last_steps).reshape(-1)
+    out["eval/alive_share"] = alive.mean()
+    kept = particle.mutual_information(flat, labels, bins=bins, value_range=value_range,
+                                       num_labels=num, weights=alive)
+    out["eval/mi_alive"] = kept["mi"].mean()
+    out["eval/entropy_alive"] = kept["entropy"].mean()
     lgr = particle.latent_goal_reaching(reached, goals, last_steps=last_steps)
     out["eval/lgr"] = lgr["lgr"]
     out.update({f"eval/lgr_1d/{i}": lgr["lgr_1d"][k] for k, i in enumerate(indices)})
@@ -222,13 +230,20 @@ def _obs_and_done(state, action, next_state):
   return next_state.obs, next_state.done
 
 
-def alive_share(done: jax.Array, last_steps: int, every: int = 1) -> jax.Array:
-  """The share of scored states taken before their episode ended: ``done [..., T]`` (the env's
-  done flag after each step, episodes on the leading axes), the states scored being every
-  ``every``-th of the last ``last_steps`` steps. The step that ends an episode still counts (its
-  state is the one the episode ended in); the steps after it do not. 1.0 when no episode ends."""
+def alive_mask(done: jax.Array, last_steps: int, every: int = 1) -> jax.Array:
+  """1.0 for each scored state taken before its episode ended, else 0.0: ``done [..., T]`` (the
+  env's done flag after each step, episodes on the leading axes), the states scored being every
+  ``every``-th of the last ``last_steps`` steps (``[..., ceil(last_steps / every)]``). The step
+  that ends an episode still counts (its state is the one the episode ended in); the steps after
+  it do not."""
   alive = envs_lib.alive_before(jnp.moveaxis(done.astype(jnp.float32), -1, 0))
-  return jnp.moveaxis(alive, 0, -1)[..., -last_steps:][..., ::every].mean()
+  return jnp.moveaxis(alive, 0, -1)[..., -last_steps:][..., ::every]
+
+
+def alive_share(done: jax.Array, last_steps: int, every: int = 1) -> jax.Array:
+  """The share of scored states taken before their episode ended (``alive_mask``'s mean); 1.0
+  when no episode ends."""
+  return alive_mask(done, last_steps, every).mean()
 
 
 def mode_shares(x: jax.Array, means: jax.Array) -> dict[str, jax.Array]:

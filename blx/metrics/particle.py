@@ -51,11 +51,13 @@ def entropy_2d(x: jax.Array, *, bins: int = 30, value_range=(-1.0, 1.0)) -> jax.
   return _entropy_of_counts(counts, jnp.asarray(x.shape[0], jnp.float32))
 
 
-def _mi(flat_idx, inside, labels, num_labels, num_cells, n):
-  total = jnp.zeros(num_cells).at[flat_idx].add(inside)
-  h_all = _entropy_of_counts(total, n)
-  per_label = jnp.zeros((num_labels, num_cells)).at[labels, flat_idx].add(inside)
-  n_label = jnp.zeros(num_labels).at[labels].add(1.0)
+def _mi(flat_idx, inside, labels, num_labels, num_cells, weights):
+  """MI, H(s), mean_z H(s|z) of binned samples, each sample counting ``weights`` (in range or not:
+  the out-of-range ones count in the totals but fall in no bin)."""
+  total = jnp.zeros(num_cells).at[flat_idx].add(inside * weights)
+  h_all = _entropy_of_counts(total, weights.sum())
+  per_label = jnp.zeros((num_labels, num_cells)).at[labels, flat_idx].add(inside * weights)
+  n_label = jnp.zeros(num_labels).at[labels].add(weights)
   h_cond = _entropy_of_counts(per_label, n_label[:, None])
   present = n_label > 0
   h_z = jnp.sum(jnp.where(present, h_cond, 0.0)) / jnp.maximum(present.sum(), 1)
@@ -71,8 +73,16 @@ def _num_labels(labels, num_labels):
   return int(num_labels)
 
 
+def _weights(weights, n):
+  if weights is None:
+    return jnp.ones(n, jnp.float32)
+  chex.assert_shape(weights, (n,))
+  return jnp.asarray(weights, jnp.float32)
+
+
 def mutual_information(x: jax.Array, labels: jax.Array, *, bins: int = 1000,
-                       value_range=(-1.0, 1.0), num_labels: int | None = None) -> dict:
+                       value_range=(-1.0, 1.0), num_labels: int | None = None,
+                       weights: jax.Array | None = None) -> dict:
   """Particle estimate of I(s; z) per dimension (paper Algorithm 1):
 
       MI_d = H(s_d) - mean_z H(s_d | z)
@@ -83,6 +93,8 @@ def mutual_information(x: jax.Array, labels: jax.Array, *, bins: int = 1000,
     x: samples ``[N, D]`` (or ``[N]``).
     labels: the skill of each sample ``[N]``, ints in 0..num_labels-1.
     num_labels: number of skills (static; inferred from ``labels`` outside jit).
+    weights: each sample's weight ``[N]`` (default 1): a 0/1 mask estimates the MI of the kept
+      samples alone (a skill with none kept drops out of the mean over z).
 
   Returns:
     ``{"mi": [D], "entropy": [D] (H(s)), "conditional_entropy": [D] (mean_z H(s|z))}``.
@@ -92,8 +104,8 @@ def mutual_information(x: jax.Array, labels: jax.Array, *, bins: int = 1000,
   chex.assert_equal_shape_prefix([x, labels], 1)
   k = _num_labels(labels, num_labels)
   idx, inside = _bin_index(x, bins, value_range)
-  n = jnp.asarray(x.shape[0], jnp.float32)
-  fn = lambda i, m: _mi(i, m.astype(jnp.float32), labels, k, bins, n)
+  w = _weights(weights, x.shape[0])
+  fn = lambda i, m: _mi(i, m.astype(jnp.float32), labels, k, bins, w)
   mi, h, hz = jax.vmap(fn, in_axes=(1, 1))(idx, inside)
   return {"mi": mi, "entropy": h, "conditional_entropy": hz}
 
@@ -107,7 +119,7 @@ def mutual_information_2d(x: jax.Array, labels: jax.Array, *, bins: int = 30,
   idx, inside = _bin_index(x, bins, value_range)
   flat = idx[:, 0] * bins + idx[:, 1]
   mi, h, hz = _mi(flat, inside.all(-1).astype(jnp.float32), labels, k, bins * bins,
-                  jnp.asarray(x.shape[0], jnp.float32))
+                  jnp.ones(x.shape[0], jnp.float32))
   return {"mi": mi, "entropy": h, "conditional_entropy": hz}
 
 

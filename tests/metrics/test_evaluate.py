@@ -170,12 +170,20 @@ def test_both_evaluators_say_how_many_scored_states_came_after_a_fall():
   out = metrics.evaluate_mimax(env, gcrl, Hand(gain=0.0), jax.random.PRNGKey(0), policy=still,
                                num_latents=3, episodes_per_latent=2, last_steps=4, num_goals=2)
   np.testing.assert_allclose(out["eval/alive_share"], 0.25)
+  # The MI diagnostic of the states before the falls sees one state per episode (obs 3, the
+  # same for every latent): H(s) = 0 there, while the protocol's H(s) sees obs 3, 4, 5 and 6,
+  # a quarter each (6 is outside [-5, 5]: counted, in no bin), -3/4 log 1/4.
+  np.testing.assert_allclose(out["eval/entropy_alive"], 0.0, atol=1e-6)
+  np.testing.assert_allclose(out["eval/mi_alive"], 0.0, atol=1e-6)
+  np.testing.assert_allclose(out["eval/entropy"], 0.75 * np.log(4), rtol=1e-5)
   # The point mass never ends an episode early: every scored state counts.
   env = point(50)
   out = metrics.evaluate_mimax(env, objectives.gcrl(obs_indices="pos_xy", env=env, obs_scale=5.0),
                                Hand(gain=2.0), jax.random.PRNGKey(0), policy=go_to,
                                num_latents=2, episodes_per_latent=1, last_steps=10)
   assert out["eval/alive_share"] == 1.0
+  np.testing.assert_allclose(out["eval/mi_alive"], out["eval/mi"], rtol=1e-6)
+  np.testing.assert_allclose(out["eval/entropy_alive"], out["eval/entropy"], rtol=1e-6)
 
 
 def test_a_new_family_plugs_in_through_one_registration(monkeypatch):

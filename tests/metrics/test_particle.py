@@ -53,6 +53,34 @@ def test_identical_conditionals_give_mi_zero():
   assert float(out2["mi"]) == pytest.approx(0.0, abs=1e-5)
 
 
+def test_a_zero_one_weight_estimates_the_mi_of_the_kept_samples_alone():
+  # Four skills at their own points, plus "fallen" samples that every skill shares at 0.9: the
+  # mask that keeps the skills' own samples gives log 4, as if the fallen ones were never taken,
+  # while the whole set mixes each skill with the shared point.
+  k = 4
+  own = np.repeat(np.arange(k), 30)
+  x = np.concatenate([(own - 1.5) * 0.4, np.full(k * 20, 0.9)])
+  labels = np.concatenate([own, np.repeat(np.arange(k), 20)])
+  keep = np.concatenate([np.ones(k * 30), np.zeros(k * 20)])
+  kept = metrics.mutual_information(jnp.asarray(x), jnp.asarray(labels), bins=100,
+                                    weights=jnp.asarray(keep))
+  alone = metrics.mutual_information(jnp.asarray(x[keep == 1]), jnp.asarray(own), bins=100)
+  np.testing.assert_allclose(kept["mi"], [np.log(k)], rtol=1e-5)
+  for name in ("mi", "entropy", "conditional_entropy"):
+    np.testing.assert_allclose(kept[name], alone[name], rtol=1e-5)
+  whole = metrics.mutual_information(jnp.asarray(x), jnp.asarray(labels), bins=100)
+  assert float(whole["mi"][0]) < np.log(k) - 0.3
+  # Unit weights are the default; a skill with no kept sample drops out of the mean over z.
+  ones = metrics.mutual_information(jnp.asarray(x), jnp.asarray(labels), bins=100,
+                                    weights=jnp.ones(len(x)))
+  np.testing.assert_allclose(ones["mi"], whole["mi"], rtol=1e-6)
+  drop = metrics.mutual_information(jnp.asarray(x), jnp.asarray(labels), bins=100,
+                                    weights=jnp.asarray(keep * (labels != 3)))
+  np.testing.assert_allclose(drop["mi"], [np.log(3)], rtol=1e-5)
+  with pytest.raises(AssertionError):
+    metrics.mutual_information(jnp.asarray(x), jnp.asarray(labels), weights=jnp.ones(3))
+
+
 def test_mutual_information_under_jit_needs_num_labels():
   x, labels = jnp.zeros((6, 1)), jnp.array([0, 0, 1, 1, 2, 2])
   fn = jax.jit(lambda x, l: metrics.mutual_information(x, l, bins=4, num_labels=3)["mi"])

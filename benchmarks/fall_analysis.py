@@ -1,0 +1,222 @@
+"""Whether falls account for a low MI-max row (#15): rolls a finished run's skills out the paper's way
+and splits the scored states into those taken before each episode ended and those after.
+
+    python benchmarks/fall_analysis.py RUN_DIR [--seeds 0,1] [--deterministic] [--draws 5]
+                                               [--out FILE.json]
+    python benchmarks/fall_analysis.py RUN_DIR --plot   # falls.png from what has run
+
+Per seed, on the paper's skill episodes (each skill's latent, 10 episodes of the env's length, the
+last 500 steps scored, actions sampled unless ``--deterministic``; no reset after a fall, as in
+Braxlines' evaluation):
+- ``mi``, ``entropy``: the protocol's MI and H(s) over every scored state (as ``eval.json``, on
+  other random episodes);
+- ``alive_share``: the share of scored states taken before their episode ended;
+- ``mi_alive``, ``entropy_alive``: MI and H(s) of those states alone (``metrics.alive_mask``);
+- ``mi_subset``: the control. MI of random subsets that keep as many states of each skill as the
+  alive ones, drawn uniformly from the skill's scored states (mean of ``--draws``). The plug-in
+  estimator reads higher on fewer samples; this is how much of ``mi_alive`` that explains;
+- ``speed_alive``, ``speed_after``: the mean norm of the scored feature (e.g. the xy velocity)
+  before and after the falls;
+- ``end_step``: the median step at which an episode ended (the episode length if none did).
+
+Prints the mean +- std over seeds, and the Pearson correlation over seeds of the protocol's MI with
+the alive share; writes every per-seed value to ``--out`` (default RUN_DIR/fall_analysis.json, or
+fall_analysis_deterministic.json).
+
+``--plot`` draws RUN_DIR/falls.png: the protocol's MI and the alive-only MI over training beside
+the paper's MI (mean +- std over seeds, from metrics.csv; the run must have been trained with
+``--eval-metrics``), the alive share over training, and, from fall_analysis.json, each seed's MI
+against its alive share.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib.util
+import json
+import os
+import sys
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from blx import envs, metrics
+from blx.experiments import runs
+
+BINS = 1000
+_HERE = os.path.dirname(os.path.abspath(__file__))
+
+
+def _module(name: str):
+  spec = importlib.util.spec_from_file_location(name, os.path.join(_HERE, f"{name}.py"))
+  module = importlib.util.module_from_spec(spec)
+  sys.modules[name] = module  # dataclasses look their module up there
+  spec.loader.exec_module(module)
+  return module
+
+
+def analyse(run: runs.Run, params, key: jax.Array, *, deterministic: bool, draws: int,
+            num_latents: int = 10, episodes_per_latent: int = 10) -> dict:
+  """The per-seed figures above for one seed's ``params`` (no seed axis)."""
+  objective = run.objective
+  indices = np.asarray(metrics.eval_indices(objective))
+  scale = objective.spec.obs_scale
+  last = min(500, max(1, envs.episode_steps(run.env, "fall_analysis") // 2))
+  z_key, roll_key, draw_key = jax.random.split(key, 3)
+  latents = metrics.latents_for_evaluation(objective, z_key, num_latents)
+  num = latents.shape[0]
+  obs, done = metrics.rollout(run.env, run.policy, params, latents, roll_key,
+                              episodes_per_latent=episodes_per_latent,
+                              deterministic=deterministic,
+                              record=lambda s, a, n: (n.obs[..., indices], n.done))
+  states = obs[:, :, -last:]                          # [L, M, T, D]
+  alive = metrics.alive_mask(done, last)              # [L, M, T]
+  flat = states.reshape(-1, len(indices))
+  labels = jnp.repeat(jnp.arange(num), states.shape[1] * states.shape[2])
+  mi = lambda w: metrics.mutual_information(flat, labels, bins=BINS, value_range=(-scale, scale),
+                                            num_labels=num, weights=w)
+  every, kept = mi(None), mi(alive.reshape(-1))
+
+  def subset(k):
+    # Per skill, as many states as it kept alive, at uniformly random places among its scored ones.
+    per_skill = alive.reshape(num, -1)
+    u = jax.random.uniform(k, per_skill.shape)
+    rank = jnp.argsort(jnp.argsort(u, axis=-1), axis=-1)
+    return mi((rank < per_skill.sum(-1, keepdims=True)).astype(jnp.float32).reshape(-1))["mi"]
+
+  control = jax.vmap(subset)(jax.random.split(draw_key, draws)).mean(0)
+  speed = jnp.linalg.norm(states, axis=-1)
+  after = 1.0 - alive
+  ended = envs.alive_before(jnp.moveaxis(done.astype(jnp.float32), -1, 0)).sum(0)  # [L, M]
+  return {"mi": every["mi"].mean(), "entropy": every["entropy"].mean(),
+          "alive_share": alive.mean(),
+          "mi_alive": kept["mi"].mean(), "entropy_alive": kept["entropy"].mean(),
+          "mi_subset": control.mean(),
+          "speed_alive": (speed * alive).sum() / jnp.maximum(alive.sum(), 1.0),
+          "speed_after": (speed * after).sum() / jnp.maximum(after.sum(), 1.0),
+          "end_step": jnp.median(ended)}
+
+
+def plot(directory: str) -> str:
+  """Draws ``directory/falls.png`` (see the module's doc) and returns its path."""
+  import csv
+
+  import matplotlib
+  matplotlib.use("Agg")
+  import matplotlib.pyplot as plt
+  ablations = _module("ablations")
+  with open(os.path.join(directory, "config.json")) as f:
+    config = json.load(f)
+  with open(os.path.join(directory, "metrics.csv")) as f:
+    rows = list(csv.DictReader(f))
+  if not rows or "eval/mi_alive" not in rows[0]:
+    raise SystemExit(f"{directory}/metrics.csv has no eval/mi_alive: train with --eval-metrics "
+                     "(and a blx that logs it)")
+  paper = ablations.paper_tables.PAPER.get(config["env"], {}).get(config["objective"], {})
+  paper_mi = paper.get("eval/mi")
+  analysis_path = os.path.join(directory, "fall_analysis.json")
+  analysis = None
+  if os.path.exists(analysis_path):
+    with open(analysis_path) as f:
+      analysis = json.load(f)
+  fig, axes = plt.subplots(1, 3 if analysis else 2, figsize=(15 if analysis else 10, 3.8))
+
+  def band(ax, key, label, color):
+    steps, mean, std = ablations.curve(rows, key)
+    x = [s / 1e6 for s in steps]
+    ax.plot(x, mean, color=color, label=label)
+    ax.fill_between(x, [m - d for m, d in zip(mean, std)], [m + d for m, d in zip(mean, std)],
+                    color=color, alpha=0.2)
+
+  ax = axes[0]
+  band(ax, "eval/mi", "MI, every scored state (the protocol)", "C0")
+  band(ax, "eval/mi_alive", "MI, the states before each fall (0 while none)", "C1")
+  if paper_mi:
+    ax.axhline(paper_mi[0], color="k", ls="--", lw=1, label=f"the paper's MI ({paper_mi[0]})")
+  ax.set_title("MI(s, z) over training (quick evaluations)")
+  ax.set_ylabel("MI (nats)")
+  ax.legend(fontsize=7)
+  ax = axes[1]
+  band(ax, "eval/alive_share", "alive share", "C2")
+  ax.set_ylim(0, 1)
+  ax.set_title("share of scored states taken before the fall")
+  for ax in axes[:2]:
+    ax.set_xlabel("env steps per seed (millions)")
+    ax.grid(alpha=0.3)
+  if analysis:
+    ax = axes[2]
+    v = analysis["per_seed"]
+    ax.scatter(v["alive_share"], v["mi"], color="C0", label="every scored state (the protocol)")
+    ax.scatter(v["alive_share"], v["mi_alive"], color="C1", label="the states before each fall")
+    ax.scatter(v["alive_share"], v["mi_subset"], color="C7", marker="x",
+               label="random subsets of the same size (control)")
+    if paper_mi:
+      ax.axhspan(paper_mi[0] - paper_mi[1], paper_mi[0] + paper_mi[1], color="k", alpha=0.1,
+                 label="the paper's MI, mean ± std")
+    ax.set_xlabel("alive share of the seed's scored states")
+    ax.set_ylabel("MI (nats)")
+    actions = "mean" if analysis["deterministic"] else "sampled"
+    ax.set_title(f"each seed at the end ({actions} actions, 10 episodes per skill)", fontsize=9)
+    ax.legend(fontsize=7)
+    ax.grid(alpha=0.3)
+  fig.suptitle(f"{config['objective']} on {config['env']}, {len(config['seeds'])} seeds: how much "
+               "of the MI the falls take (mean ± std over seeds)", fontsize=10)
+  fig.tight_layout()
+  path = os.path.join(directory, "falls.png")
+  fig.savefig(path, dpi=120)
+  plt.close(fig)
+  return path
+
+
+def main(argv=None) -> int:
+  parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+  parser.add_argument("run", help="a finished MI-max run directory (config.json and checkpoint)")
+  parser.add_argument("--seeds", default=None,
+                      help="comma-separated positions in the run's seeds (default all)")
+  parser.add_argument("--deterministic", action="store_true", help="take the mean actions")
+  parser.add_argument("--draws", type=int, default=5, help="random subsets for the control")
+  parser.add_argument("--out", default=None)
+  parser.add_argument("--plot", action="store_true",
+                      help="only draw falls.png from metrics.csv and fall_analysis.json")
+  args = parser.parse_args(argv)
+  if args.plot:
+    print(f"wrote {plot(args.run)}")
+    return 0
+  run = runs.load_run(args.run)
+  if run.objective.spec.__class__.__name__ != "MimaxSpec":
+    parser.error(f"{args.run}: {run.spec.objective} is not an MI-max objective; this analysis "
+                 "reads MI")
+  n = len(run.spec.seeds)
+  picked = list(range(n)) if args.seeds is None else [int(s) for s in args.seeds.split(",")]
+  bad = [p for p in picked if not 0 <= p < n]
+  if bad:
+    parser.error(f"--seeds {bad}: the run has {n} seeds, positions 0..{n - 1}")
+  if args.draws < 1:
+    parser.error("--draws must be at least 1")
+  params = jax.tree.map(lambda x: x[np.asarray(picked)], run.params)
+  keys = jax.random.split(jax.random.PRNGKey(1), n)[np.asarray(picked)]
+  fn = jax.jit(jax.vmap(lambda p, k: analyse(run, p, k, deterministic=args.deterministic,
+                                             draws=args.draws)))
+  values = {k: np.asarray(v).tolist() for k, v in fn(params, keys).items()}
+  result = {"run": os.path.abspath(args.run), "seeds": [run.spec.seeds[p] for p in picked],
+            "deterministic": args.deterministic, "draws": args.draws, "per_seed": values}
+  if len(picked) > 2:
+    result["corr_mi_alive_share"] = float(np.corrcoef(values["mi"], values["alive_share"])[0, 1])
+  name = "fall_analysis_deterministic.json" if args.deterministic else "fall_analysis.json"
+  out = args.out or os.path.join(args.run, name)
+  with open(out, "w") as f:
+    json.dump(result, f, indent=2)
+  actions = "mean" if args.deterministic else "sampled"
+  print(f"{run.spec.objective} on {run.spec.env}, seeds {result['seeds']}, {actions} actions")
+  print("| metric | mean +- std over seeds |\n| --- | ---: |")
+  for k, v in values.items():
+    print(f"| {k} | {np.mean(v):.3f} +- {np.std(v):.3f} |")
+  if "corr_mi_alive_share" in result:
+    print(f"Pearson r over seeds, MI against alive share: {result['corr_mi_alive_share']:.2f}")
+  print(f"wrote {out}")
+  return 0
+
+
+if __name__ == "__main__":
+  raise SystemExit(main())

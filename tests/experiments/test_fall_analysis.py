@@ -1,0 +1,72 @@
+"""benchmarks/fall_analysis.py: the split of an MI-max row's scored states into those before and
+after each episode's end, on a stand-in env whose skills are known points until a fall."""
+
+import importlib.util
+import pathlib
+import sys
+from types import SimpleNamespace
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+from blx import envs, objectives
+
+_PATH = pathlib.Path(__file__).resolve().parents[2] / "benchmarks" / "fall_analysis.py"
+_spec = importlib.util.spec_from_file_location("fall_analysis", _PATH)
+fall_analysis = importlib.util.module_from_spec(_spec)
+sys.modules["fall_analysis"] = fall_analysis
+_spec.loader.exec_module(fall_analysis)
+
+K = 4
+
+
+class _FallsAtSix:
+  """Observation: the action while standing, 0 from the step after the fall; the episode ends
+  (a fall) at step 6."""
+
+  observation_size, action_size = 1, 1
+
+  def reset(self, key):
+    from blx.envs.env import State
+    return State(data=jnp.zeros(()), obs=jnp.zeros(1), reward=jnp.zeros(()), done=jnp.zeros(()))
+
+  def step(self, state, action):
+    t = state.data + 1.0
+    return state.replace(data=t, obs=jnp.where(t <= 6.0, action, 0.0),
+                         done=(t >= 6.0).astype(jnp.float32))
+
+
+def _skill_policy(params, obs, z, key=None, deterministic=False):
+  return (jnp.argmax(z, -1).astype(jnp.float32) + 1.0)[:, None]  # skill k stands at k + 1
+
+
+def test_the_states_after_the_falls_are_split_from_those_before():
+  # 8-step episodes, the last 4 scored (steps 5-8): steps 5 and 6 (the fall) count as standing, 7
+  # and 8 come after. Before the falls the skills are at 1..4: MI = log K. With the fallen states
+  # (all at 0, half of each skill's) the protocol's MI is H(s) - H(s|z) = (log 2 + log 2K) / 2 -
+  # log 2 = log(K) / 2.
+  run = SimpleNamespace(env=envs.episode(_FallsAtSix(), 8), policy=_skill_policy,
+                        objective=objectives.diayn(num_skills=K, obs_indices=(0,), obs_scale=5.0))
+  out = jax.jit(lambda k: fall_analysis.analyse(run, {}, k, deterministic=True, draws=3))(
+      jax.random.PRNGKey(0))
+  np.testing.assert_allclose(out["alive_share"], 0.5)
+  np.testing.assert_allclose(out["mi_alive"], np.log(K), rtol=1e-5)
+  np.testing.assert_allclose(out["mi"], np.log(K) / 2, rtol=1e-5)
+  np.testing.assert_allclose(out["end_step"], 6)
+  np.testing.assert_allclose(out["speed_after"], 0.0)
+  np.testing.assert_allclose(out["speed_alive"], np.mean(np.arange(1, K + 1)))
+  # The control keeps as many states per skill, at random places: it mixes in fallen states, so it
+  # reads near the protocol (about half of each subset fallen) and far below the states before
+  # the falls.
+  assert abs(out["mi_subset"] - out["mi"]) < 0.2
+  assert out["mi_subset"] < out["mi_alive"] - 0.4
+
+
+def test_the_command_refuses_a_seed_the_run_does_not_have(tmp_path, monkeypatch):
+  run = SimpleNamespace(spec=SimpleNamespace(seeds=(0, 1), objective="diayn", env="point"),
+                        objective=objectives.diayn(num_skills=K, obs_indices=(0,)))
+  monkeypatch.setattr(fall_analysis.runs, "load_run", lambda directory: run)
+  with pytest.raises(SystemExit):
+    fall_analysis.main([str(tmp_path), "--seeds", "0,2"])
