@@ -1,8 +1,8 @@
 """Whether falls account for a low MI-max row (#15): rolls a finished run's skills out the paper's way
 and splits the scored states into those taken before each episode ended and those after.
 
-    python benchmarks/fall_analysis.py RUN_DIR [--seeds 0,1] [--deterministic] [--draws 5]
-                                               [--out FILE.json]
+    python benchmarks/fall_analysis.py RUN_DIR [--seeds 0,1] [--deterministic | --noise-scale S]
+                                               [--draws 5] [--out FILE.json]
     python benchmarks/fall_analysis.py RUN_DIR --plot   # falls.png from what has run
 
 Per seed, on the paper's skill episodes (each skill's latent, 10 episodes of the env's length, the
@@ -17,11 +17,19 @@ Braxlines' evaluation):
   estimator reads higher on fewer samples; this is how much of ``mi_alive`` that explains;
 - ``speed_alive``, ``speed_after``: the mean norm of the scored feature (e.g. the xy velocity)
   before and after the falls;
-- ``end_step``: the median step at which an episode ended (the episode length if none did).
+- ``end_step``: the median step at which an episode ended (the episode length if none did);
+  ``last_end_step``: the latest. Braxlines' rollout stops once every episode of the batch has
+  ended, so where this is below the episode length its scored window would have ended there
+  (blx's evaluator always runs the whole episode).
+
+``--noise-scale S`` samples the pre-tanh action at S times the policy's std around its mean (1: the
+protocol's sampled actions, 0: the mean actions): how much action noise the body stays up under.
+A diagnostic, never the protocol. (The scaled action is tanh(m + S (u - m)), with m and u
+recovered from the policy's mean and sampled actions by arctanh, clipped at |a| = 1 - 1e-6.)
 
 Prints the mean +- std over seeds, and the Pearson correlation over seeds of the protocol's MI with
 the alive share; writes every per-seed value to ``--out`` (default RUN_DIR/fall_analysis.json, or
-fall_analysis_deterministic.json).
+fall_analysis_deterministic.json, or fall_analysis_noise_S.json).
 
 ``--plot`` draws RUN_DIR/falls.png: the protocol's MI and the alive-only MI over training beside
 the paper's MI (mean +- std over seeds, from metrics.csv; the run must have been trained with
@@ -56,9 +64,24 @@ def _module(name: str):
   return module
 
 
+def scaled_noise(policy, scale: float):
+  """``policy`` with its pre-tanh sampling noise multiplied by ``scale`` (see the module's doc)."""
+  limit = 1.0 - 1e-6
+
+  def noisy(params, obs, z=None, key=None, deterministic=False):
+    mean = jnp.arctanh(jnp.clip(policy(params, obs, z, deterministic=True), -limit, limit))
+    sampled = jnp.arctanh(jnp.clip(policy(params, obs, z, key=key, deterministic=False),
+                                   -limit, limit))
+    return jnp.tanh(mean + scale * (sampled - mean))
+
+  return noisy
+
+
 def analyse(run: runs.Run, params, key: jax.Array, *, deterministic: bool, draws: int,
-            num_latents: int = 10, episodes_per_latent: int = 10) -> dict:
-  """The per-seed figures above for one seed's ``params`` (no seed axis)."""
+            num_latents: int = 10, episodes_per_latent: int = 10,
+            noise_scale: float | None = None) -> dict:
+  """The per-seed figures above for one seed's ``params`` (no seed axis); ``noise_scale`` (with
+  ``deterministic`` False) scales the sampling noise."""
   objective = run.objective
   indices = np.asarray(metrics.eval_indices(objective))
   scale = objective.spec.obs_scale
@@ -66,7 +89,8 @@ def analyse(run: runs.Run, params, key: jax.Array, *, deterministic: bool, draws
   z_key, roll_key, draw_key = jax.random.split(key, 3)
   latents = metrics.latents_for_evaluation(objective, z_key, num_latents)
   num = latents.shape[0]
-  obs, done = metrics.rollout(run.env, run.policy, params, latents, roll_key,
+  policy = run.policy if noise_scale is None else scaled_noise(run.policy, noise_scale)
+  obs, done = metrics.rollout(run.env, policy, params, latents, roll_key,
                               episodes_per_latent=episodes_per_latent,
                               deterministic=deterministic,
                               record=lambda s, a, n: (n.obs[..., indices], n.done))
@@ -95,7 +119,7 @@ def analyse(run: runs.Run, params, key: jax.Array, *, deterministic: bool, draws
           "mi_subset": control.mean(),
           "speed_alive": (speed * alive).sum() / jnp.maximum(alive.sum(), 1.0),
           "speed_after": (speed * after).sum() / jnp.maximum(after.sum(), 1.0),
-          "end_step": jnp.median(ended)}
+          "end_step": jnp.median(ended), "last_end_step": ended.max()}
 
 
 def plot(directory: str) -> str:
@@ -175,6 +199,8 @@ def main(argv=None) -> int:
   parser.add_argument("--seeds", default=None,
                       help="comma-separated positions in the run's seeds (default all)")
   parser.add_argument("--deterministic", action="store_true", help="take the mean actions")
+  parser.add_argument("--noise-scale", type=float, default=None,
+                      help="sample at this multiple of the policy's std (a diagnostic)")
   parser.add_argument("--draws", type=int, default=5, help="random subsets for the control")
   parser.add_argument("--out", default=None)
   parser.add_argument("--plot", action="store_true",
@@ -192,22 +218,27 @@ def main(argv=None) -> int:
   bad = [p for p in picked if not 0 <= p < n]
   if bad:
     parser.error(f"--seeds {bad}: the run has {n} seeds, positions 0..{n - 1}")
+  if args.noise_scale is not None and (args.deterministic or args.noise_scale < 0):
+    parser.error("--noise-scale takes a number >= 0 and not --deterministic (which is scale 0)")
   if args.draws < 1:
     parser.error("--draws must be at least 1")
   params = jax.tree.map(lambda x: x[np.asarray(picked)], run.params)
   keys = jax.random.split(jax.random.PRNGKey(1), n)[np.asarray(picked)]
   fn = jax.jit(jax.vmap(lambda p, k: analyse(run, p, k, deterministic=args.deterministic,
-                                             draws=args.draws)))
+                                             draws=args.draws, noise_scale=args.noise_scale)))
   values = {k: np.asarray(v).tolist() for k, v in fn(params, keys).items()}
   result = {"run": os.path.abspath(args.run), "seeds": [run.spec.seeds[p] for p in picked],
-            "deterministic": args.deterministic, "draws": args.draws, "per_seed": values}
+            "deterministic": args.deterministic, "noise_scale": args.noise_scale,
+            "draws": args.draws, "per_seed": values}
   if len(picked) > 2:
     result["corr_mi_alive_share"] = float(np.corrcoef(values["mi"], values["alive_share"])[0, 1])
-  name = "fall_analysis_deterministic.json" if args.deterministic else "fall_analysis.json"
+  name = ("fall_analysis_deterministic.json" if args.deterministic else "fall_analysis.json"
+          if args.noise_scale is None else f"fall_analysis_noise_{args.noise_scale:g}.json")
   out = args.out or os.path.join(args.run, name)
   with open(out, "w") as f:
     json.dump(result, f, indent=2)
-  actions = "mean" if args.deterministic else "sampled"
+  actions = ("mean" if args.deterministic else "sampled" if args.noise_scale is None
+             else f"{args.noise_scale:g} x std sampled")
   print(f"{run.spec.objective} on {run.spec.env}, seeds {result['seeds']}, {actions} actions")
   print("| metric | mean +- std over seeds |\n| --- | ---: |")
   for k, v in values.items():

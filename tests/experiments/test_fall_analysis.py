@@ -55,6 +55,7 @@ def test_the_states_after_the_falls_are_split_from_those_before():
   np.testing.assert_allclose(out["mi_alive"], np.log(K), rtol=1e-5)
   np.testing.assert_allclose(out["mi"], np.log(K) / 2, rtol=1e-5)
   np.testing.assert_allclose(out["end_step"], 6)
+  np.testing.assert_allclose(out["last_end_step"], 6)
   np.testing.assert_allclose(out["speed_after"], 0.0)
   np.testing.assert_allclose(out["speed_alive"], np.mean(np.arange(1, K + 1)))
   # The control keeps as many states per skill, at random places: it mixes in fallen states, so it
@@ -70,3 +71,17 @@ def test_the_command_refuses_a_seed_the_run_does_not_have(tmp_path, monkeypatch)
   monkeypatch.setattr(fall_analysis.runs, "load_run", lambda directory: run)
   with pytest.raises(SystemExit):
     fall_analysis.main([str(tmp_path), "--seeds", "0,2"])
+
+
+def test_scaled_noise_moves_the_pre_tanh_action_between_mean_and_sample():
+  # A policy with mean 0.3 and std 2 before the tanh: scale 1 is its sample, 0 its mean, and 0.5
+  # half the noise, all with the same key.
+  def policy(params, obs, z=None, key=None, deterministic=True):
+    u = jnp.full(obs.shape, 0.3)
+    return jnp.tanh(u if deterministic else u + 2.0 * jax.random.normal(key, obs.shape))
+
+  obs, key = jnp.zeros((5, 2)), jax.random.PRNGKey(3)
+  noise = 2.0 * jax.random.normal(key, obs.shape)
+  for scale in (0.0, 0.5, 1.0):
+    np.testing.assert_allclose(fall_analysis.scaled_noise(policy, scale)({}, obs, key=key),
+                               np.tanh(0.3 + scale * noise), atol=1e-5)
