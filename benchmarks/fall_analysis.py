@@ -51,6 +51,7 @@ import numpy as np
 
 from blx import envs, metrics
 from blx.experiments import runs
+from blx.objectives.specs import MimaxSpec
 
 BINS = 1000
 _HERE = os.path.dirname(os.path.abspath(__file__))
@@ -210,11 +211,14 @@ def main(argv=None) -> int:
     print(f"wrote {plot(args.run)}")
     return 0
   run = runs.load_run(args.run)
-  if run.objective.spec.__class__.__name__ != "MimaxSpec":
+  if not isinstance(run.objective.spec, MimaxSpec):
     parser.error(f"{args.run}: {run.spec.objective} is not an MI-max objective; this analysis "
                  "reads MI")
   n = len(run.spec.seeds)
-  picked = list(range(n)) if args.seeds is None else [int(s) for s in args.seeds.split(",")]
+  try:
+    picked = list(range(n)) if args.seeds is None else [int(s) for s in args.seeds.split(",")]
+  except ValueError:
+    parser.error(f"--seeds {args.seeds!r}: give comma-separated positions, e.g. 0,1")
   bad = [p for p in picked if not 0 <= p < n]
   if bad:
     parser.error(f"--seeds {bad}: the run has {n} seeds, positions 0..{n - 1}")

@@ -69,8 +69,9 @@ def test_the_command_refuses_a_seed_the_run_does_not_have(tmp_path, monkeypatch)
   run = SimpleNamespace(spec=SimpleNamespace(seeds=(0, 1), objective="diayn", env="point"),
                         objective=objectives.diayn(num_skills=K, obs_indices=(0,)))
   monkeypatch.setattr(fall_analysis.runs, "load_run", lambda directory: run)
-  with pytest.raises(SystemExit):
-    fall_analysis.main([str(tmp_path), "--seeds", "0,2"])
+  for bad in ("0,2", "one"):
+    with pytest.raises(SystemExit):
+      fall_analysis.main([str(tmp_path), "--seeds", bad])
 
 
 def test_scaled_noise_moves_the_pre_tanh_action_between_mean_and_sample():
