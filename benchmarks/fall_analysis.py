@@ -40,7 +40,6 @@ against its alive share.
 from __future__ import annotations
 
 import argparse
-import importlib.util
 import json
 import os
 import sys
@@ -49,20 +48,14 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from blx import envs, metrics
-from blx.experiments import runs
-from blx.objectives.specs import MimaxSpec
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import ablations  # noqa: E402
+
+from blx import envs, metrics  # noqa: E402
+from blx.experiments import runs  # noqa: E402
+from blx.objectives.specs import MimaxSpec  # noqa: E402
 
 BINS = 1000
-_HERE = os.path.dirname(os.path.abspath(__file__))
-
-
-def _module(name: str):
-  spec = importlib.util.spec_from_file_location(name, os.path.join(_HERE, f"{name}.py"))
-  module = importlib.util.module_from_spec(spec)
-  sys.modules[name] = module  # dataclasses look their module up there
-  spec.loader.exec_module(module)
-  return module
 
 
 def scaled_noise(policy, scale: float):
@@ -86,7 +79,7 @@ def analyse(run: runs.Run, params, key: jax.Array, *, deterministic: bool, draws
   objective = run.objective
   indices = np.asarray(metrics.eval_indices(objective))
   scale = objective.spec.obs_scale
-  last = min(500, max(1, envs.episode_steps(run.env, "fall_analysis") // 2))
+  last = metrics.scored_steps(run.env)
   z_key, roll_key, draw_key = jax.random.split(key, 3)
   latents = metrics.latents_for_evaluation(objective, z_key, num_latents)
   num = latents.shape[0]
@@ -130,15 +123,13 @@ def plot(directory: str) -> str:
   import matplotlib
   matplotlib.use("Agg")
   import matplotlib.pyplot as plt
-  ablations = _module("ablations")
-  with open(os.path.join(directory, "config.json")) as f:
-    config = json.load(f)
+  spec = runs.read_spec(directory)
   with open(os.path.join(directory, "metrics.csv")) as f:
     rows = list(csv.DictReader(f))
   if not rows or "eval/mi_alive" not in rows[0]:
     raise SystemExit(f"{directory}/metrics.csv has no eval/mi_alive: train with --eval-metrics "
                      "(and a blx that logs it)")
-  paper = ablations.paper_tables.PAPER.get(config["env"], {}).get(config["objective"], {})
+  paper = ablations.paper_tables.PAPER.get(spec.env, {}).get(spec.objective, {})
   paper_mi = paper.get("eval/mi")
   analysis_path = os.path.join(directory, "fall_analysis.json")
   analysis = None
@@ -185,7 +176,7 @@ def plot(directory: str) -> str:
     ax.set_title(f"each seed at the end ({actions} actions, 10 episodes per skill)", fontsize=9)
     ax.legend(fontsize=7)
     ax.grid(alpha=0.3)
-  fig.suptitle(f"{config['objective']} on {config['env']}, {len(config['seeds'])} seeds: how much "
+  fig.suptitle(f"{spec.objective} on {spec.env}, {len(spec.seeds)} seeds: how much "
                "of the MI the falls take (mean ± std over seeds)", fontsize=10)
   fig.tight_layout()
   path = os.path.join(directory, "falls.png")

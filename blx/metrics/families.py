@@ -17,7 +17,7 @@ from blx.metrics.evaluate import dmin_evaluator, mimax_evaluator
 from blx.objectives.base import Objective
 from blx.objectives.specs import DminSpec, MimaxSpec, TaskSpec
 
-__all__ = ["Family", "register_family", "family_of", "evaluator_for", "PLOTS"]
+__all__ = ["Family", "register_family", "family_of", "evaluator_for", "scored_steps", "PLOTS"]
 
 # What ``blx.experiments.plots`` can draw for a family beyond the training curves: "skills" (the
 # feature space per latent, for specs with a prior) and "density" (policy samples against the
@@ -78,8 +78,13 @@ def evaluator_for(env: Any, objective: Objective, *, quick: bool = False) -> Cal
   family = family_of(objective)
   if family.make_evaluator is None:
     return None
-  last = min(500, max(1, envs.episode_steps(env, "evaluator_for") // 2))
-  return family.make_evaluator(env, objective, last_steps=last, quick=quick)
+  return family.make_evaluator(env, objective, last_steps=scored_steps(env), quick=quick)
+
+
+def scored_steps(env: Any) -> int:
+  """How many of the last steps of each of ``env``'s episodes the paper's evaluators score: half
+  the episode, at most 500 (the paper's, for its 1,000-step episodes)."""
+  return min(500, max(1, envs.episode_steps(env, "evaluator_for") // 2))
 
 
 def _mimax(env, objective, *, last_steps, quick):

@@ -70,14 +70,11 @@ def rewrite(directory: str, *, keep: Callable[[str], bool], meta_update: dict) -
   """Writes the checkpoint in ``directory`` again, atomically, with only the arrays whose pytree
   path (``.params.policy...``) ``keep`` accepts and its metadata updated by ``meta_update``.
   The checkpoint before it stays whole until the new one is in place."""
-  file = path(directory)
-  if not os.path.exists(file):
-    if _legacy(directory):
-      raise CheckpointError(f"checkpoint in {directory} is of the old two-file format "
-                            f"({_LEGACY_DATA} + {_LEGACY_META}), which keys its arrays by position; "
-                            "resume the run once to write it in the current format")
-    raise CheckpointError(f"no checkpoint at {file}")
-  arrays, meta = _open(directory)
+  if not os.path.exists(path(directory)) and _legacy(directory):
+    raise CheckpointError(f"checkpoint in {directory} is of the old two-file format "
+                          f"({_LEGACY_DATA} + {_LEGACY_META}), which keys its arrays by position; "
+                          "resume the run once to write it in the current format")
+  arrays, meta = _open(directory)  # a missing checkpoint: "no checkpoint at ..."
   _write(directory, {k: v for k, v in arrays.items() if keep(k)}, {**meta, **meta_update})
 
 
