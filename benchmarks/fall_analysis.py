@@ -230,8 +230,9 @@ def main(argv=None) -> int:
   name = ("fall_analysis_deterministic.json" if args.deterministic else "fall_analysis.json"
           if args.noise_scale is None else f"fall_analysis_noise_{args.noise_scale:g}.json")
   out = args.out or os.path.join(args.run, name)
-  with open(out, "w") as f:
+  with open(out + ".tmp", "w") as f:  # a killed run leaves the last whole file, never half of one
     json.dump(result, f, indent=2)
+  os.replace(out + ".tmp", out)
   actions = ("mean" if args.deterministic else "sampled" if args.noise_scale is None
              else f"{args.noise_scale:g} x std sampled")
   print(f"{run.spec.objective} on {run.spec.env}, seeds {result['seeds']}, {actions} actions")
