@@ -2,6 +2,7 @@
 after each episode's end, on a stand-in env whose skills are known points until a fall."""
 
 import importlib.util
+import json
 import pathlib
 import sys
 from types import SimpleNamespace
@@ -86,3 +87,25 @@ def test_scaled_noise_moves_the_pre_tanh_action_between_mean_and_sample():
   for scale in (0.0, 0.5, 1.0):
     np.testing.assert_allclose(fall_analysis.scaled_noise(policy, scale)({}, obs, key=key),
                                np.tanh(0.3 + scale * noise), atol=1e-5)
+
+
+def test_a_write_killed_halfway_leaves_the_last_whole_result(tmp_path, monkeypatch):
+  run = SimpleNamespace(spec=SimpleNamespace(seeds=(0, 1, 2), objective="diayn", env="point"),
+                        objective=objectives.diayn(num_skills=K, obs_indices=(0,)),
+                        params={"w": jnp.arange(3.0)})
+  monkeypatch.setattr(fall_analysis.runs, "load_run", lambda directory: run)
+  monkeypatch.setattr(fall_analysis, "analyse",
+                      lambda run, p, k, **_: {"mi": p["w"], "alive_share": p["w"] + 1.0})
+  out = tmp_path / "fall_analysis.json"
+  fall_analysis.main([str(tmp_path)])
+  whole = out.read_text()
+  assert json.loads(whole)["per_seed"]["mi"] == [0.0, 1.0, 2.0]
+
+  def dies_halfway(obj, f, **kw):
+    f.write('{"run": ')
+    raise KeyboardInterrupt
+
+  monkeypatch.setattr(fall_analysis.json, "dump", dies_halfway)
+  with pytest.raises(KeyboardInterrupt):
+    fall_analysis.main([str(tmp_path), "--draws", "2"])
+  assert out.read_text() == whole
