@@ -1,4 +1,4 @@
-"""Whether falls account for a low MI-max row (#15): rolls a finished run's skills out the paper's way
+"""Whether falls account for a low MI-max or D-min row (#15): rolls a finished run out the paper's way
 and splits the scored states into those taken before each episode ended and those after.
 
     python benchmarks/fall_analysis.py RUN_DIR [--seeds 0,1] [--deterministic | --noise-scale S]
@@ -20,7 +20,30 @@ Braxlines' evaluation):
 - ``end_step``: the median step at which an episode ended (the episode length if none did);
   ``last_end_step``: the latest. Braxlines' rollout stops once every episode of the batch has
   ended, so where this is below the episode length its scored window would have ended there
-  (blx's evaluator always runs the whole episode).
+  (blx's evaluator always runs the whole episode);
+- ``braxlines_end``, ``mi_braxlines``: the step before which Braxlines' rollout of the same
+  episodes stops (the first at which every episode is done at once, by the per-step done flags)
+  and the MI of the window it would score (``metrics.braxlines_window``: the last 500 states it
+  kept, the reset state included). The protocol's window, shifted by one step, when
+  ``braxlines_end`` is the episode length.
+
+A D-min run (GAIL, AIRL, ...) is rolled out as its evaluator does (10 episodes, every 10th of the
+last 500 steps scored against the target's samples) and gets, per seed:
+- ``energy_distance``: the protocol's energy distance, every scored state (as ``eval.json``, on
+  other random episodes); ``alive_share`` as above;
+- ``energy_distance_alive``: the scored states taken before the fall alone (NaN where there are
+  none);
+- ``energy_distance_upright``: every 10th state of the whole episode up to its fall, scored or not:
+  what the policy does while it is up (a diagnostic; the protocol never scores these early steps);
+  ``upright_share``: the share of the whole episode's states taken before the fall;
+- ``speed_upright``, ``speed_after``: the mean norm of the matched feature while up and, among the
+  scored states, after the fall;
+- ``end_step``, ``last_end_step``, ``mean_end_step``: as above, and the mean;
+- ``braxlines_end``, ``energy_distance_braxlines``: as above for MI: the energy distance of the
+  window Braxlines' evaluator would score on the same 10 episodes (where every episode falls early,
+  the states before the falls, from the reset on).
+It also prints the energy distance of a body at rest (every state at 0), the reference a policy
+that never moves would score.
 
 ``--noise-scale S`` samples the pre-tanh action at S times the policy's std around its mean (1: the
 protocol's sampled actions, 0: the mean actions): how much action noise the body stays up under.
@@ -28,13 +51,16 @@ A diagnostic, never the protocol. (The scaled action is tanh(m + S (u - m)), wit
 recovered from the policy's mean and sampled actions by arctanh, clipped at |a| = 1 - 1e-6.)
 
 Prints the mean +- std over seeds, and the Pearson correlation over seeds of the protocol's MI with
-the alive share; writes every per-seed value to ``--out`` (default RUN_DIR/fall_analysis.json, or
+the alive share (D-min: of the energy distance with the mean end of an episode); writes every
+per-seed value to ``--out`` (default RUN_DIR/fall_analysis.json, or
 fall_analysis_deterministic.json, or fall_analysis_noise_S.json).
 
 ``--plot`` draws RUN_DIR/falls.png: the protocol's MI and the alive-only MI over training beside
 the paper's MI (mean +- std over seeds, from metrics.csv; the run must have been trained with
 ``--eval-metrics``), the alive share over training, and, from fall_analysis.json, each seed's MI
-against its alive share.
+against its alive share. For a D-min run: the energy distance over training beside the paper's,
+the length of PPO's evaluation episodes over training, and each seed's energy distances against
+the mean end of its episodes.
 """
 
 from __future__ import annotations
@@ -53,7 +79,7 @@ import ablations  # noqa: E402
 
 from blx import envs, metrics  # noqa: E402
 from blx.experiments import runs  # noqa: E402
-from blx.objectives.specs import MimaxSpec  # noqa: E402
+from blx.objectives.specs import DminSpec, MimaxSpec  # noqa: E402
 
 BINS = 1000
 
@@ -84,10 +110,10 @@ def analyse(run: runs.Run, params, key: jax.Array, *, deterministic: bool, draws
   latents = metrics.latents_for_evaluation(objective, z_key, num_latents)
   num = latents.shape[0]
   policy = run.policy if noise_scale is None else scaled_noise(run.policy, noise_scale)
-  obs, done = metrics.rollout(run.env, policy, params, latents, roll_key,
-                              episodes_per_latent=episodes_per_latent,
-                              deterministic=deterministic,
-                              record=lambda s, a, n: (n.obs[..., indices], n.done))
+  before, obs, done = metrics.rollout(
+      run.env, policy, params, latents, roll_key, episodes_per_latent=episodes_per_latent,
+      deterministic=deterministic,
+      record=lambda s, a, n: (s.obs[..., indices], n.obs[..., indices], n.done))
   states = obs[:, :, -last:]                          # [L, M, T, D]
   alive = metrics.alive_mask(done, last)              # [L, M, T]
   flat = states.reshape(-1, len(indices))
@@ -104,6 +130,12 @@ def analyse(run: runs.Run, params, key: jax.Array, *, deterministic: bool, draws
     return mi((rank < per_skill.sum(-1, keepdims=True)).astype(jnp.float32).reshape(-1))["mi"]
 
   control = jax.vmap(subset)(jax.random.split(draw_key, draws)).mean(0)
+  window = metrics.braxlines_window(done.reshape(-1, done.shape[-1]), last)  # one batch
+  brax = metrics.mutual_information(
+      before.reshape(-1, len(indices)),
+      jnp.repeat(jnp.arange(num), before.shape[1] * before.shape[2]), bins=BINS,
+      value_range=(-scale, scale), num_labels=num,
+      weights=jnp.broadcast_to(window, before.shape[:3]).reshape(-1))
   speed = jnp.linalg.norm(states, axis=-1)
   after = 1.0 - alive
   ended = envs.alive_before(jnp.moveaxis(done.astype(jnp.float32), -1, 0)).sum(0)  # [L, M]
@@ -113,7 +145,54 @@ def analyse(run: runs.Run, params, key: jax.Array, *, deterministic: bool, draws
           "mi_subset": control.mean(),
           "speed_alive": (speed * alive).sum() / jnp.maximum(alive.sum(), 1.0),
           "speed_after": (speed * after).sum() / jnp.maximum(after.sum(), 1.0),
-          "end_step": jnp.median(ended), "last_end_step": ended.max()}
+          "end_step": jnp.median(ended), "last_end_step": ended.max(),
+          "mi_braxlines": brax["mi"].mean(), "braxlines_end": _braxlines_end(done)}
+
+
+def _braxlines_end(done: jax.Array) -> jax.Array:
+  """The step E before which Braxlines' rollout of these episodes (one batch) stops: the first at
+  which every episode is done at once (``metrics.braxlines_window``)."""
+  all_done = jnp.all(done.reshape(-1, done.shape[-1]) > 0, axis=0)
+  return jnp.where(jnp.any(all_done), jnp.argmax(all_done) + 1, done.shape[-1])
+
+
+def analyse_dmin(run: runs.Run, params, key: jax.Array, *, deterministic: bool,
+                 num_episodes: int = 10, every: int | None = None,
+                 noise_scale: float | None = None) -> dict:
+  """The D-min figures of the module's doc for one seed's ``params`` (no seed axis). ``every``:
+  the evaluator's (every 10th state, every state in episodes under 200 steps) unless given."""
+  spec = run.objective.spec
+  if every is None:
+    every = 1 if envs.episode_steps(run.env, "fall_analysis") < 200 else 10
+  indices = np.asarray(spec.obs_indices)
+  target = jnp.asarray(spec.target.samples)[:, :len(indices)]
+  last = metrics.scored_steps(run.env)
+  policy = run.policy if noise_scale is None else scaled_noise(run.policy, noise_scale)
+  before, obs, done = metrics.rollout(
+      run.env, policy, params, jnp.zeros((1, 0)), key, episodes_per_latent=num_episodes,
+      conditions_policy=False, deterministic=deterministic,
+      record=lambda s, a, n: (s.obs[..., indices], n.obs[..., indices], n.done))
+  before, obs, done = before[0], obs[0], done[0]                # [M, T, D], [M, T]
+  scored = obs[:, -last:][:, ::every].reshape(-1, len(indices))
+  alive = metrics.alive_mask(done, last, every).reshape(-1)
+  steps = done.shape[-1]
+  whole = obs[:, ::every].reshape(-1, len(indices))
+  up = metrics.alive_mask(done, steps, every).reshape(-1)
+  ended = envs.alive_before(jnp.moveaxis(done.astype(jnp.float32), -1, 0)).sum(0)  # [M]
+  speed = lambda x, w: (jnp.linalg.norm(x, axis=-1) * w).sum() / jnp.maximum(w.sum(), 1.0)
+  return {"energy_distance": metrics.energy_distance(scored, target),
+          "alive_share": alive.mean(),
+          "energy_distance_alive": metrics.energy_distance(scored, target, weights=alive),
+          "energy_distance_upright": metrics.energy_distance(whole, target, weights=up),
+          "upright_share": up.mean(),
+          "speed_upright": speed(whole, up), "speed_after": speed(scored, 1.0 - alive),
+          "end_step": jnp.median(ended), "last_end_step": ended.max(),
+          "mean_end_step": ended.mean(),
+          "energy_distance_braxlines": metrics.energy_distance(
+              before.reshape(-1, len(indices)), target,
+              weights=jnp.broadcast_to(metrics.braxlines_window(done, last, every),
+                                       done.shape).reshape(-1)),
+          "braxlines_end": _braxlines_end(done)}
 
 
 def plot(directory: str) -> str:
@@ -126,25 +205,21 @@ def plot(directory: str) -> str:
   spec = runs.read_spec(directory)
   with open(os.path.join(directory, "metrics.csv")) as f:
     rows = list(csv.DictReader(f))
-  if not rows or "eval/mi_alive" not in rows[0]:
-    raise SystemExit(f"{directory}/metrics.csv has no eval/mi_alive: train with --eval-metrics "
-                     "(and a blx that logs it)")
-  paper = ablations.paper_tables.PAPER.get(spec.env, {}).get(spec.objective, {})
-  paper_mi = paper.get("eval/mi")
   analysis_path = os.path.join(directory, "fall_analysis.json")
   analysis = None
   if os.path.exists(analysis_path):
     with open(analysis_path) as f:
       analysis = json.load(f)
+  if rows and "eval/energy_distance" in rows[0]:
+    return _plot_dmin(directory, spec, rows, analysis, plt)
+  if not rows or "eval/mi_alive" not in rows[0]:
+    raise SystemExit(f"{directory}/metrics.csv has no eval/mi_alive: train with --eval-metrics "
+                     "(and a blx that logs it)")
+  paper = ablations.paper_tables.PAPER.get(spec.env, {}).get(spec.objective, {})
+  paper_mi = paper.get("eval/mi")
   fig, axes = plt.subplots(1, 3 if analysis else 2, figsize=(15 if analysis else 10, 3.8))
 
-  def band(ax, key, label, color):
-    steps, mean, std = ablations.curve(rows, key)
-    x = [s / 1e6 for s in steps]
-    ax.plot(x, mean, color=color, label=label)
-    ax.fill_between(x, [m - d for m, d in zip(mean, std)], [m + d for m, d in zip(mean, std)],
-                    color=color, alpha=0.2)
-
+  band = lambda ax, key, label, color: _band(ax, rows, key, label, color)
   ax = axes[0]
   band(ax, "eval/mi", "MI, every scored state (the protocol)", "C0")
   band(ax, "eval/mi_alive", "MI, the states before each fall (0 while none)", "C1")
@@ -185,9 +260,72 @@ def plot(directory: str) -> str:
   return path
 
 
+def _band(ax, rows, key, label, color):
+  steps, mean, std = ablations.curve(rows, key)
+  x = [s / 1e6 for s in steps]
+  ax.plot(x, mean, color=color, label=label)
+  ax.fill_between(x, [m - d for m, d in zip(mean, std)], [m + d for m, d in zip(mean, std)],
+                  color=color, alpha=0.2)
+
+
+def _plot_dmin(directory, spec, rows, analysis, plt) -> str:
+  paper = ablations.paper_tables.PAPER.get(spec.env, {}).get(spec.objective, {})
+  paper_ed = paper.get("-eval/energy_distance")
+  fig, axes = plt.subplots(1, 3 if analysis else 2, figsize=(18 if analysis else 10, 3.8))
+  ax = axes[0]
+  _band(ax, rows, "eval/energy_distance", "energy distance, blx's window (the last 500 steps)",
+        "C0")
+  if "eval/energy_distance_braxlines" in rows[0]:
+    _band(ax, rows, "eval/energy_distance_braxlines", "energy distance, Braxlines' window", "C4")
+  if paper_ed:
+    ax.axhline(-paper_ed[0], color="k", ls="--", lw=1,
+               label=f"the paper's energy distance ({-paper_ed[0]})")
+  if analysis and "energy_distance_at_rest" in analysis:
+    ax.axhline(analysis["energy_distance_at_rest"], color="C3", ls=":", lw=1,
+               label=f"a body at rest ({analysis['energy_distance_at_rest']:.2f})")
+  ax.set_title("energy distance to the target over training (lower is better)", fontsize=9)
+  ax.set_ylabel("energy distance")
+  ax.legend(fontsize=7)
+  ax = axes[1]
+  _band(ax, rows, "eval/episode_length", "PPO's evaluation episodes (mean actions)", "C2")
+  ax.set_title("episode length: steps before the fall (1,000: none)", fontsize=9)
+  ax.set_ylabel("steps")
+  ax.legend(fontsize=7)
+  for ax in axes[:2]:
+    ax.set_xlabel("env steps per seed (millions)")
+    ax.grid(alpha=0.3)
+  if analysis:
+    ax = axes[2]
+    v = analysis["per_seed"]
+    ax.scatter(v["mean_end_step"], v["energy_distance"], color="C0",
+               label="blx's window (the last 500 steps)")
+    if "energy_distance_braxlines" in v:
+      ax.scatter(v["mean_end_step"], v["energy_distance_braxlines"], color="C4", marker="s",
+                 label="Braxlines' window (the paper's protocol)")
+    ax.scatter(v["mean_end_step"], v["energy_distance_upright"], color="C1",
+               label="every state before the fall (whole episode)")
+    if paper_ed:
+      ax.axhspan(-paper_ed[0] - paper_ed[1], -paper_ed[0] + paper_ed[1], color="k", alpha=0.1,
+                 label="the paper's energy distance, mean ± std")
+    ax.set_xlabel("mean step at which the seed's episodes fell")
+    ax.set_ylabel("energy distance")
+    actions = "mean" if analysis["deterministic"] else "sampled"
+    ax.set_title(f"each seed at the end ({actions} actions, 10 episodes)", fontsize=9)
+    ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.02, 1.0))  # off the points
+    ax.grid(alpha=0.3)
+  fig.suptitle(f"{spec.objective} on {spec.env}, {len(spec.seeds)} seeds: the energy distance and "
+               "the falls (mean ± std over seeds)", fontsize=10)
+  fig.tight_layout()
+  path = os.path.join(directory, "falls.png")
+  fig.savefig(path, dpi=120)
+  plt.close(fig)
+  return path
+
+
 def main(argv=None) -> int:
   parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-  parser.add_argument("run", help="a finished MI-max run directory (config.json and checkpoint)")
+  parser.add_argument("run", help="a finished MI-max or D-min run directory (config.json and "
+                      "checkpoint)")
   parser.add_argument("--seeds", default=None,
                       help="comma-separated positions in the run's seeds (default all)")
   parser.add_argument("--deterministic", action="store_true", help="take the mean actions")
@@ -202,9 +340,10 @@ def main(argv=None) -> int:
     print(f"wrote {plot(args.run)}")
     return 0
   run = runs.load_run(args.run)
-  if not isinstance(run.objective.spec, MimaxSpec):
-    parser.error(f"{args.run}: {run.spec.objective} is not an MI-max objective; this analysis "
-                 "reads MI")
+  dmin = isinstance(run.objective.spec, DminSpec)
+  if not (dmin or isinstance(run.objective.spec, MimaxSpec)):
+    parser.error(f"{args.run}: {run.spec.objective} is neither an MI-max nor a D-min objective; "
+                 "this analysis reads MI or the energy distance")
   n = len(run.spec.seeds)
   try:
     picked = list(range(n)) if args.seeds is None else [int(s) for s in args.seeds.split(",")]
@@ -219,14 +358,27 @@ def main(argv=None) -> int:
     parser.error("--draws must be at least 1")
   params = jax.tree.map(lambda x: x[np.asarray(picked)], run.params)
   keys = jax.random.split(jax.random.PRNGKey(1), n)[np.asarray(picked)]
-  fn = jax.jit(jax.vmap(lambda p, k: analyse(run, p, k, deterministic=args.deterministic,
-                                             draws=args.draws, noise_scale=args.noise_scale)))
-  values = {k: np.asarray(v).tolist() for k, v in fn(params, keys).items()}
+  if dmin:
+    one = lambda p, k: analyse_dmin(run, p, k, deterministic=args.deterministic,
+                                    noise_scale=args.noise_scale)
+  else:
+    one = lambda p, k: analyse(run, p, k, deterministic=args.deterministic, draws=args.draws,
+                               noise_scale=args.noise_scale)
+  values = {k: np.asarray(v).tolist() for k, v in jax.jit(jax.vmap(one))(params, keys).items()}
   result = {"run": os.path.abspath(args.run), "seeds": [run.spec.seeds[p] for p in picked],
             "deterministic": args.deterministic, "noise_scale": args.noise_scale,
             "draws": args.draws, "per_seed": values}
+  if dmin:
+    spec = run.objective.spec
+    target = jnp.asarray(spec.target.samples)[:, :len(spec.obs_indices)]
+    result["energy_distance_at_rest"] = float(
+        metrics.energy_distance(jnp.zeros((500, target.shape[1])), target))
   if len(picked) > 2:
-    result["corr_mi_alive_share"] = float(np.corrcoef(values["mi"], values["alive_share"])[0, 1])
+    if dmin:
+      result["corr_energy_distance_mean_end_step"] = float(
+          np.corrcoef(values["energy_distance"], values["mean_end_step"])[0, 1])
+    else:
+      result["corr_mi_alive_share"] = float(np.corrcoef(values["mi"], values["alive_share"])[0, 1])
   name = ("fall_analysis_deterministic.json" if args.deterministic else "fall_analysis.json"
           if args.noise_scale is None else f"fall_analysis_noise_{args.noise_scale:g}.json")
   out = args.out or os.path.join(args.run, name)
@@ -241,6 +393,11 @@ def main(argv=None) -> int:
     print(f"| {k} | {np.mean(v):.3f} +- {np.std(v):.3f} |")
   if "corr_mi_alive_share" in result:
     print(f"Pearson r over seeds, MI against alive share: {result['corr_mi_alive_share']:.2f}")
+  if "energy_distance_at_rest" in result:
+    print(f"energy distance of a body at rest: {result['energy_distance_at_rest']:.3f}")
+  if "corr_energy_distance_mean_end_step" in result:
+    print("Pearson r over seeds, energy distance against the mean end of an episode: "
+          f"{result['corr_energy_distance_mean_end_step']:.2f}")
   print(f"wrote {out}")
   return 0
 

@@ -117,9 +117,15 @@ def verdicts(eval_json: dict) -> list[str]:
   paper's mean - std."""
   name, env = eval_json["objective"], eval_json.get("env", "ant")
   lines = []
-  for key, (mean, std) in PAPER.get(env, {}).get(name, {}).items():
+  # Each metric in blx's fixed window, then (where the run logged it) in the window Braxlines'
+  # rollout scores (``metrics.braxlines_window``), against the same paper value.
+  rows = [(key, key.lstrip("-"), mean, std)
+          for key, (mean, std) in PAPER.get(env, {}).get(name, {}).items()]
+  rows += [(f"{key} (Braxlines' window)", f"{metric}_braxlines", mean, std)
+           for key, metric, mean, std in list(rows)]
+  for key, metric, mean, std in rows:
     sign = -1.0 if key.startswith("-") else 1.0
-    values = [sign * v for v in eval_json["per_seed"].get(key.lstrip("-"), [])]
+    values = [sign * v for v in eval_json["per_seed"].get(metric, [])]
     if not values:
       continue
     mu, sd = mean_std(values)

@@ -22,6 +22,7 @@ from __future__ import annotations
 import dataclasses
 from typing import Any, Callable
 
+import chex
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -33,7 +34,7 @@ from blx.objectives.specs import DminSpec, MimaxSpec
 
 __all__ = ["rollout", "episode_batch", "Evaluator", "latents_for_evaluation", "eval_indices",
            "mimax_evaluator", "dmin_evaluator", "mode_shares", "alive_share", "alive_mask",
-           "evaluate_mimax", "evaluate_dmin"]
+           "braxlines_window", "evaluate_mimax", "evaluate_dmin"]
 
 
 def rollout(env: Any, policy: Callable, params: dict, latents: jax.Array, key: jax.Array, *,
@@ -146,6 +147,11 @@ def mimax_evaluator(env: Any, objective: Objective, *, num_latents: int = 10,
     ``eval/mi_alive``, ``eval/entropy_alive``: diagnostics, not the protocol's metrics: MI and
     H(s) of those states alone (a skill whose every scored state came after its falls drops out),
     which tell how much of a low MI the states after the falls account for.
+    ``eval/mi_braxlines``, ``eval/entropy_braxlines``: MI and H(s) of the skill episodes in the
+    window Braxlines' rollout scores (``braxlines_window``). They equal ``eval/mi`` and
+    ``eval/entropy`` (up to a one-step shift of the window) unless every skill episode is done at
+    once before the step limit; then Braxlines' rollout stops there and scores the states before
+    it, which a fixed window would miss. (LGR keeps the fixed window.)
   """
   _check_spec(objective, MimaxSpec, "mimax_evaluator")
   indices = np.asarray(eval_indices(objective))
@@ -163,10 +169,13 @@ def mimax_evaluator(env: Any, objective: Objective, *, num_latents: int = 10,
     goal_latents = jax.vmap(infer_latent, (None, 0))(params.objective, goal_obs)
     batch, shape = episode_batch(env, policy, params, jnp.concatenate([latents, goal_latents]),
                                  roll_key, episodes_per_latent=episodes_per_latent,
-                                 deterministic=deterministic, record=_obs_and_done)
+                                 deterministic=deterministic, record=record)
     return batch, lambda records: score(*shape(records), latents.shape[0])
 
-  def score(obs, done, num):
+  def record(state, action, next_state):
+    return next_state.obs, next_state.done, state.obs[..., indices]
+
+  def score(obs, done, before, num):
     everything = obs[..., indices]
     states = everything[:num, :, -last_steps:]  # [L, M, T, D]
     reached = everything[num:]
@@ -187,6 +196,15 @@ def mimax_evaluator(env: Any, objective: Objective, *, num_latents: int = 10,
                                        num_labels=num, weights=alive)
     out["eval/mi_alive"] = kept["mi"].mean()
     out["eval/entropy_alive"] = kept["entropy"].mean()
+    skills = before[:num]                                 # [L, M, T, D]: s_0 .. s_{T-1}
+    window = braxlines_window(done[:num].reshape(-1, done.shape[-1]), last_steps)
+    brax = particle.mutual_information(
+        skills.reshape(-1, len(indices)),
+        jnp.repeat(jnp.arange(num), skills.shape[1] * skills.shape[2]), bins=bins,
+        value_range=value_range, num_labels=num,
+        weights=jnp.broadcast_to(window, skills.shape[:3]).reshape(-1))
+    out["eval/mi_braxlines"] = brax["mi"].mean()
+    out["eval/entropy_braxlines"] = brax["entropy"].mean()
     lgr = particle.latent_goal_reaching(reached, goals, last_steps=last_steps)
     out["eval/lgr"] = lgr["lgr"]
     out.update({f"eval/lgr_1d/{i}": lgr["lgr_1d"][k] for k, i in enumerate(indices)})
@@ -203,7 +221,11 @@ def dmin_evaluator(env: Any, objective: Objective, *, num_episodes: int = 10,
   the last ``last_steps`` steps, actions sampled unless ``deterministic``) and the target samples,
   with ``eval/mode_share/k`` (``mode_shares``) for a target of several modes and
   ``eval/alive_share`` (as in ``mimax_evaluator``: the share of the scored states taken before
-  their episode ended)."""
+  their episode ended) and ``eval/energy_distance_braxlines``: the energy distance of the window
+  Braxlines' rollout scores (``braxlines_window``). The two energy distances agree (up to a
+  one-step shift of the window) unless every episode is done at once before the step limit; then
+  Braxlines' rollout stops there and scores the states before it (the reset state included),
+  where the fixed window scores the fallen bodies."""
   _check_spec(objective, DminSpec, "dmin_evaluator")
   indices = np.asarray(objective.spec.obs_indices)
   target = jnp.asarray(objective.spec.target.samples)[:, :len(indices)]
@@ -212,22 +234,29 @@ def dmin_evaluator(env: Any, objective: Objective, *, num_episodes: int = 10,
   def episodes(policy, params, key):
     batch, shape = episode_batch(env, policy, params, jnp.zeros((1, 0)), key,
                                  episodes_per_latent=num_episodes, conditions_policy=False,
-                                 deterministic=deterministic, record=_obs_and_done)
+                                 deterministic=deterministic, record=record)
     return batch, lambda records: score(*shape(records))
 
-  def score(states, done):
-    x = states[0, :, -last_steps:][:, ::every][..., indices]  # [episodes, samples, D]
+  def record(state, action, next_state):
+    return next_state.obs[..., indices], next_state.done, state.obs[..., indices]
+
+  def score(states, done, before):
+    x = states[0, :, -last_steps:][:, ::every]  # [episodes, samples, D]
+    # Braxlines' window holds at most x's number of states per episode: gather them, not all T.
+    window = braxlines_window(done[0], last_steps, every)
+    kept = jnp.nonzero(window, size=x.shape[1], fill_value=0)[0]
+    valid = (jnp.arange(x.shape[1]) < window.sum()).astype(jnp.float32)
+    brax = before[0][:, kept]                   # [episodes, samples, D]
     out = {"eval/energy_distance": particle.energy_distance(x.reshape(-1, len(indices)), target),
-           "eval/alive_share": alive_share(done[0], last_steps, every)}
+           "eval/alive_share": alive_share(done[0], last_steps, every),
+           "eval/energy_distance_braxlines": particle.energy_distance(
+               brax.reshape(-1, len(indices)), target,
+               weights=jnp.broadcast_to(valid, brax.shape[:2]).reshape(-1))}
     if means is not None and len(means) > 1:
       out.update(mode_shares(x, jnp.asarray(means)[:, :len(indices)]))
     return out
 
   return Evaluator(episodes)
-
-
-def _obs_and_done(state, action, next_state):
-  return next_state.obs, next_state.done
 
 
 def alive_mask(done: jax.Array, last_steps: int, every: int = 1) -> jax.Array:
@@ -238,6 +267,28 @@ def alive_mask(done: jax.Array, last_steps: int, every: int = 1) -> jax.Array:
   it do not."""
   alive = envs_lib.alive_before(jnp.moveaxis(done.astype(jnp.float32), -1, 0))
   return jnp.moveaxis(alive, 0, -1)[..., -last_steps:][..., ::every]
+
+
+def braxlines_window(done: jax.Array, last_steps: int, every: int = 1) -> jax.Array:
+  """The states Braxlines' evaluators score, as a 0/1 mask over the states s_0 .. s_{T-1} that
+  each step starts from (the reset state first).
+
+  ``done [N, T]``: the done flag of s_1 .. s_T (the env's flag after each step, per step, not
+  cumulative), for the N episodes of one evaluation batch. Braxlines' rollout keeps s_0, s_1, ...
+  while not every episode of the batch is done at once, so it stops before the first E >= 1 at
+  which all N flags are 1 (E = T if they never are: the step limit sets them at T). Its evaluators
+  then score the last ``last_steps`` states it kept, every ``every``-th from the first of those:
+  s_j for j in [max(0, E - last_steps), E) with (j - max(0, E - last_steps)) % every == 0. So where
+  every episode of the batch ends early, the window moves to before the ends, reset state
+  included; blx's fixed window (the last ``last_steps`` of T steps) scores the fallen bodies
+  instead. Returns ``[T]`` (the same window for every episode of the batch)."""
+  chex.assert_rank(done, 2)
+  steps = done.shape[1]
+  all_done = jnp.all(done > 0, axis=0)                                  # [T]: s_1 .. s_T
+  end = jnp.where(jnp.any(all_done), jnp.argmax(all_done) + 1, steps)  # E
+  start = jnp.maximum(0, end - last_steps)
+  j = jnp.arange(steps)
+  return ((j >= start) & (j < end) & ((j - start) % every == 0)).astype(jnp.float32)
 
 
 def alive_share(done: jax.Array, last_steps: int, every: int = 1) -> jax.Array:

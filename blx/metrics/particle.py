@@ -143,17 +143,19 @@ def latent_goal_reaching(states: jax.Array, goals: jax.Array, *,
           "lgr_1d": jnp.mean(jnp.abs(diff), axis=(0, 1, 2))}
 
 
-def _mean_pairwise_distance(a: jax.Array, b: jax.Array, block: int) -> jax.Array:
-  """mean_{i,j} ||a_i - b_j|| computed block by block: memory O(block^2), not O(N M)."""
-  def pad(x):
+def _mean_pairwise_distance(a: jax.Array, b: jax.Array, block: int, wa: jax.Array,
+                            wb: jax.Array) -> jax.Array:
+  """sum_{i,j} wa_i wb_j ||a_i - b_j|| / (sum wa sum wb) computed block by block: memory
+  O(block^2), not O(N M)."""
+  def pad(x, w):
     n = x.shape[0]
     blocks = -(-n // block)
-    mask = jnp.arange(blocks * block) < n
     x = jnp.pad(x, ((0, blocks * block - n), (0, 0)))
-    return x.reshape(blocks, block, -1), mask.reshape(blocks, block)
+    w = jnp.pad(w.astype(x.dtype), (0, blocks * block - n))  # padding weighs 0
+    return x.reshape(blocks, block, -1), w.reshape(blocks, block)
 
-  a_blocks, a_mask = pad(a)
-  b_blocks, b_mask = pad(b)
+  a_blocks, a_mask = pad(a, wa)
+  b_blocks, b_mask = pad(b, wb)
 
   def row(args):
     xa, ma = args
@@ -165,23 +167,29 @@ def _mean_pairwise_distance(a: jax.Array, b: jax.Array, block: int) -> jax.Array
     return jnp.sum(jax.lax.map(col, (b_blocks, b_mask)))
 
   total = jnp.sum(jax.lax.map(row, (a_blocks, a_mask)))
-  return total / (a.shape[0] * b.shape[0])
+  return total / (jnp.sum(wa) * jnp.sum(wb))
 
 
-def energy_distance(x: jax.Array, y: jax.Array, *, block_size: int = 1024) -> jax.Array:
+def energy_distance(x: jax.Array, y: jax.Array, *, weights: jax.Array | None = None,
+                    block_size: int = 1024) -> jax.Array:
   """Energy distance (paper Algorithm 3; Szekely and Rizzo):
 
       D = 2 E||X - Y|| - E||X - X'|| - E||Y - Y'||
 
   with full pairwise means, diagonals included (the V-statistic, as Braxlines). ``x [N, D]``,
   ``y [M, D]`` (1-D inputs are treated as D = 1); computed blockwise in ``block_size`` blocks.
+  ``weights [N]`` (>= 0) weigh the samples of ``x`` in the means; 0/1 weights give the energy
+  distance of the kept samples alone, with a count that jit need not know (NaN when none is
+  kept).
   """
   x = x[:, None] if x.ndim == 1 else x
   y = y[:, None] if y.ndim == 1 else y
   chex.assert_rank([x, y], 2)
   chex.assert_equal_shape_suffix([x, y], 1)
-  mpd = lambda a, b: _mean_pairwise_distance(a, b, block_size)
-  return 2.0 * mpd(x, y) - mpd(x, x) - mpd(y, y)
+  wx = _weights(weights, x.shape[0])
+  wy = jnp.ones(y.shape[0])
+  mpd = lambda a, b, wa, wb: _mean_pairwise_distance(a, b, block_size, wa, wb)
+  return 2.0 * mpd(x, y, wx, wy) - mpd(x, x, wx, wx) - mpd(y, y, wy, wy)
 
 
 def state_coverage(xy: jax.Array, *, cell: float = 1.0) -> jax.Array:

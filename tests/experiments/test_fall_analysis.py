@@ -12,7 +12,7 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from blx import envs, objectives
+from blx import envs, metrics, objectives
 
 _PATH = pathlib.Path(__file__).resolve().parents[2] / "benchmarks" / "fall_analysis.py"
 _spec = importlib.util.spec_from_file_location("fall_analysis", _PATH)
@@ -59,6 +59,10 @@ def test_the_states_after_the_falls_are_split_from_those_before():
   np.testing.assert_allclose(out["last_end_step"], 6)
   np.testing.assert_allclose(out["speed_after"], 0.0)
   np.testing.assert_allclose(out["speed_alive"], np.mean(np.arange(1, K + 1)))
+  # Every episode is down at once from step 6, so Braxlines' rollout keeps s_0 .. s_5 and scores
+  # its last 4 (s_2 .. s_5), all standing: the skills' MI is whole.
+  np.testing.assert_allclose(out["braxlines_end"], 6)
+  np.testing.assert_allclose(out["mi_braxlines"], np.log(K), rtol=1e-5)
   # The control keeps as many states per skill, at random places: it mixes in fallen states, so it
   # reads near the protocol (about half of each subset fallen) and far below the states before
   # the falls.
@@ -109,3 +113,32 @@ def test_a_write_killed_halfway_leaves_the_last_whole_result(tmp_path, monkeypat
   with pytest.raises(KeyboardInterrupt):
     fall_analysis.main([str(tmp_path), "--draws", "2"])
   assert out.read_text() == whole
+
+
+def _climbs(params, obs, z=None, key=None, deterministic=False):
+  return obs + 1.0  # stands at 1, 2, ... 6 (the obs is the last action), then lies at 0
+
+
+def test_a_dmin_row_is_split_at_the_falls_and_scored_against_its_target():
+  # 8-step episodes, the last 4 scored, every state (short episodes): steps 5 and 6 (the fall)
+  # stand at 5 and 6, steps 7 and 8 lie at 0. The whole episode before the fall is at 1..6.
+  objective = objectives.gail(obs_indices=(0,), obs_scale=8.0)
+  target = jnp.asarray(objective.spec.target.samples)[:, :1]
+  run = SimpleNamespace(env=envs.episode(_FallsAtSix(), 8), policy=_climbs, objective=objective)
+  out = jax.jit(lambda k: fall_analysis.analyse_dmin(run, {}, k, deterministic=True,
+                                                     num_episodes=3))(jax.random.PRNGKey(0))
+  ed = lambda values: float(metrics.energy_distance(
+      jnp.tile(jnp.asarray(values, jnp.float32), 3)[:, None], target))
+  np.testing.assert_allclose(out["energy_distance"], ed([5, 6, 0, 0]), rtol=1e-5)
+  np.testing.assert_allclose(out["energy_distance_alive"], ed([5, 6]), rtol=1e-5)
+  np.testing.assert_allclose(out["energy_distance_upright"], ed([1, 2, 3, 4, 5, 6]), rtol=1e-5)
+  np.testing.assert_allclose(out["alive_share"], 0.5)
+  np.testing.assert_allclose(out["upright_share"], 0.75)
+  np.testing.assert_allclose(out["speed_upright"], 3.5, rtol=1e-6)
+  np.testing.assert_allclose(out["speed_after"], 0.0)
+  np.testing.assert_allclose([out["end_step"], out["mean_end_step"], out["last_end_step"]], 6)
+  # Braxlines' rollout stops before step 6 (every episode down at once) and scores the last 4
+  # states it kept, s_2 .. s_5: 2, 3, 4, 5.
+  np.testing.assert_allclose(out["braxlines_end"], 6)
+  np.testing.assert_allclose(out["energy_distance_braxlines"], ed([2, 3, 4, 5]), rtol=1e-5)
+

@@ -63,6 +63,17 @@ def test_energy_distance_is_compared_as_minus_the_distance():
   assert "-0.500 ± 0.082 (3)" in row and "-0.516 ± 0.640" in row and row.endswith("| yes |")
 
 
+def test_a_metric_in_braxlines_window_gets_its_own_row_against_the_same_paper_value():
+  run = {"objective": "gail", "env": "humanoid",
+         "per_seed": {"eval/energy_distance": [2.4, 2.5, 2.6],
+                      "eval/energy_distance_braxlines": [1.6, 1.7, 1.8]}}
+  fixed, brax = paper_tables.verdicts(run)
+  assert "| -eval/energy_distance |" in fixed and "-2.500 ± 0.082 (3)" in fixed
+  assert fixed.endswith("| **no** |")  # -2.5 < -1.790 - 0.413
+  assert "| -eval/energy_distance (Braxlines' window) |" in brax
+  assert "-1.700 ± 0.082 (3)" in brax and "-1.790 ± 0.413" in brax and brax.endswith("| yes |")
+
+
 def test_welch_matches_scipy_with_both_stds_as_sample_stds():
   values = [1.0, 1.3, 0.7, 1.1]
   mean, std, n = 1.5, 0.2, 10  # the paper's std is over its n seeds (population)

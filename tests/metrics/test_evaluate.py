@@ -166,6 +166,15 @@ def test_both_evaluators_say_how_many_scored_states_came_after_a_fall():
   out = metrics.evaluate_dmin(env, gail, Hand(gain=0.0), jax.random.PRNGKey(0), policy=still,
                               num_episodes=2, last_steps=4, every=1)
   np.testing.assert_allclose(out["eval/alive_share"], 0.25)
+  # Every episode is down at once from step 3, so Braxlines' rollout keeps s_0 .. s_2 (obs 0, 1,
+  # 2) and scores them all (fewer than 4): not the fallen states 3 .. 6 of the fixed window.
+  target = jnp.asarray(gail.spec.target.samples)[:, :1]
+  np.testing.assert_allclose(out["eval/energy_distance_braxlines"],
+                             metrics.energy_distance(jnp.array([0.0, 1, 2, 0, 1, 2]), target),
+                             rtol=1e-5)
+  np.testing.assert_allclose(out["eval/energy_distance"],
+                             metrics.energy_distance(jnp.array([3.0, 4, 5, 6, 3, 4, 5, 6]), target),
+                             rtol=1e-5)
   gcrl = objectives.gcrl(obs_indices=(0,), obs_scale=5.0)
   out = metrics.evaluate_mimax(env, gcrl, Hand(gain=0.0), jax.random.PRNGKey(0), policy=still,
                                num_latents=3, episodes_per_latent=2, last_steps=4, num_goals=2)
@@ -176,6 +185,9 @@ def test_both_evaluators_say_how_many_scored_states_came_after_a_fall():
   np.testing.assert_allclose(out["eval/entropy_alive"], 0.0, atol=1e-6)
   np.testing.assert_allclose(out["eval/mi_alive"], 0.0, atol=1e-6)
   np.testing.assert_allclose(out["eval/entropy"], 0.75 * np.log(4), rtol=1e-5)
+  # Braxlines' window: s_0 .. s_2 (obs 0, 1, 2), a third each.
+  np.testing.assert_allclose(out["eval/entropy_braxlines"], np.log(3), rtol=1e-5)
+  np.testing.assert_allclose(out["eval/mi_braxlines"], 0.0, atol=1e-6)
   # The point mass never ends an episode early: every scored state counts.
   env = point(50)
   out = metrics.evaluate_mimax(env, objectives.gcrl(obs_indices="pos_xy", env=env, obs_scale=5.0),
@@ -184,6 +196,10 @@ def test_both_evaluators_say_how_many_scored_states_came_after_a_fall():
   assert out["eval/alive_share"] == 1.0
   np.testing.assert_allclose(out["eval/mi_alive"], out["eval/mi"], rtol=1e-6)
   np.testing.assert_allclose(out["eval/entropy_alive"], out["eval/entropy"], rtol=1e-6)
+  # Nor is every episode done before the step limit: Braxlines scores the same last 10 states,
+  # one step earlier (s_40 .. s_49 against s_41 .. s_50); the skills have settled by then.
+  np.testing.assert_allclose(out["eval/mi_braxlines"], out["eval/mi"], rtol=1e-3)
+  np.testing.assert_allclose(out["eval/entropy_braxlines"], out["eval/entropy"], rtol=1e-3)
 
 
 def test_a_new_family_plugs_in_through_one_registration(monkeypatch):
@@ -212,3 +228,24 @@ def test_a_new_family_plugs_in_through_one_registration(monkeypatch):
     metrics.register_family(ToySpec, family)
   with pytest.raises(ValueError, match="plot='bars' is not valid"):
     metrics.register_family(str, family._replace(plot="bars"))
+
+
+def test_braxlines_window_moves_before_the_ends_when_every_episode_ends_early():
+  # 20 steps; per-step done flags of s_1 .. s_20. Episode 0 falls at step 5 and stays down;
+  # episode 1 falls at step 7, gets up at step 9 and falls again from step 12. Every episode is
+  # down at once first at step 7 (E = 7), so Braxlines keeps s_0 .. s_6.
+  done = np.zeros((2, 20))
+  done[0, 4:] = 1.0
+  done[1, 6:8] = 1.0
+  done[1, 11:] = 1.0
+  window = lambda last, every: np.flatnonzero(metrics.braxlines_window(jnp.asarray(done), last,
+                                                                       every))
+  np.testing.assert_array_equal(window(500, 1), np.arange(7))
+  np.testing.assert_array_equal(window(4, 1), [3, 4, 5, 6])
+  np.testing.assert_array_equal(window(6, 2), [1, 3, 5])
+  # No early end: only the step limit sets every flag, at s_20, so s_0 .. s_19 are kept and the
+  # last 5 scored: s_15 .. s_19.
+  done[:, :] = 0.0
+  done[:, 19] = 1.0
+  np.testing.assert_array_equal(window(5, 1), np.arange(15, 20))
+  np.testing.assert_array_equal(window(10, 5), [10, 15])

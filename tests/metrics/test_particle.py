@@ -132,3 +132,17 @@ def test_state_coverage_counts_distinct_cells():
   # cells: (0,0), (0,0), (1,0), (-1,0), (1,0), (5,5) -> 4 distinct
   assert int(metrics.state_coverage(xy)) == 4
   assert int(metrics.state_coverage(xy, cell=10.0)) == 2  # (0,0) and (-1,0)
+
+
+def test_weighted_energy_distance_is_that_of_the_kept_samples():
+  x = jax.random.normal(jax.random.PRNGKey(0), (40, 2))
+  y = jax.random.normal(jax.random.PRNGKey(1), (30, 2)) + 1.0
+  keep = (jnp.arange(40) % 3 == 0).astype(jnp.float32)
+  np.testing.assert_allclose(metrics.energy_distance(x, y, weights=keep, block_size=8),
+                             metrics.energy_distance(x[::3], y), rtol=1e-5)
+  # Integer weights count a sample that many times.
+  twice = jnp.concatenate([x, x[:5]])
+  np.testing.assert_allclose(
+      metrics.energy_distance(x, y, weights=jnp.ones(40).at[:5].set(2.0)),
+      metrics.energy_distance(twice, y), rtol=1e-5)
+  assert np.isnan(metrics.energy_distance(x, y, weights=jnp.zeros(40)))
