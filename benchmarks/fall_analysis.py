@@ -41,7 +41,12 @@ last 500 steps scored against the target's samples) and gets, per seed:
 - ``end_step``, ``last_end_step``, ``mean_end_step``: as above, and the mean;
 - ``braxlines_end``, ``energy_distance_braxlines``: as above for MI: the energy distance of the
   window Braxlines' evaluator would score on the same 10 episodes (where every episode falls early,
-  the states before the falls, from the reset on).
+  the states before the falls, from the reset on);
+- ``feature_upright/<obs index>``: the mean of each matched feature (signed) over the states
+  before the fall: which way, and how fast, a seed goes while it is up;
+- ``episode_mode_share_upright/k`` (a target of several modes): the share of episodes whose states
+  before the fall are mostly nearest to mode k. A policy that picks one mode in every episode
+  scores 1 on it; one that matches the target, 1/K on each.
 It also prints the energy distance of a body at rest (every state at 0), the reference a policy
 that never moves would score.
 
@@ -180,7 +185,18 @@ def analyse_dmin(run: runs.Run, params, key: jax.Array, *, deterministic: bool,
   up = metrics.alive_mask(done, steps, every).reshape(-1)
   ended = envs.alive_before(jnp.moveaxis(done.astype(jnp.float32), -1, 0)).sum(0)  # [M]
   speed = lambda x, w: (jnp.linalg.norm(x, axis=-1) * w).sum() / jnp.maximum(w.sum(), 1.0)
-  return {"energy_distance": metrics.energy_distance(scored, target),
+  up_t = metrics.alive_mask(done, steps)                                        # [M, T]
+  out = {f"feature_upright/{i}": (obs[..., k] * up_t).sum() / jnp.maximum(up_t.sum(), 1.0)
+         for k, i in enumerate(spec.obs_indices)}
+  means = spec.target.means
+  if means is not None and len(means) > 1:
+    # Per episode, the mode its states before the fall are mostly nearest to.
+    means = jnp.asarray(means)[:, :len(indices)]
+    nearest = jnp.argmin(((obs[..., None, :] - means) ** 2).sum(-1), axis=-1)   # [M, T]
+    votes = (jax.nn.one_hot(nearest, len(means)) * up_t[..., None]).sum(1)      # [M, K]
+    majority = jax.nn.one_hot(jnp.argmax(votes, -1), len(means)).mean(0)
+    out.update({f"episode_mode_share_upright/{k}": majority[k] for k in range(len(means))})
+  return out | {"energy_distance": metrics.energy_distance(scored, target),
           "alive_share": alive.mean(),
           "energy_distance_alive": metrics.energy_distance(scored, target, weights=alive),
           "energy_distance_upright": metrics.energy_distance(whole, target, weights=up),

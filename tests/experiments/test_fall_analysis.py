@@ -135,10 +135,17 @@ def test_a_dmin_row_is_split_at_the_falls_and_scored_against_its_target():
   np.testing.assert_allclose(out["alive_share"], 0.5)
   np.testing.assert_allclose(out["upright_share"], 0.75)
   np.testing.assert_allclose(out["speed_upright"], 3.5, rtol=1e-6)
+  np.testing.assert_allclose(out["feature_upright/0"], 3.5, rtol=1e-6)
   np.testing.assert_allclose(out["speed_after"], 0.0)
   np.testing.assert_allclose([out["end_step"], out["mean_end_step"], out["last_end_step"]], 6)
   # Braxlines' rollout stops before step 6 (every episode down at once) and scores the last 4
   # states it kept, s_2 .. s_5: 2, 3, 4, 5.
   np.testing.assert_allclose(out["braxlines_end"], 6)
   np.testing.assert_allclose(out["energy_distance_braxlines"], ed([2, 3, 4, 5]), rtol=1e-5)
+  # The target's modes are -2.67 and +2.67 (1-D, scale 8): standing at 1..6, every episode is
+  # mostly nearest to the positive one.
+  means = np.asarray(objective.spec.target.means)[:, 0]
+  positive = int(np.argmax(means))
+  np.testing.assert_allclose(out[f"episode_mode_share_upright/{positive}"], 1.0)
+  np.testing.assert_allclose(out[f"episode_mode_share_upright/{1 - positive}"], 0.0)
 
