@@ -372,8 +372,10 @@ def humanoid() -> ComponentSpec:
   paper. Brax's further 254 entries (per-body inertia, velocities, actuator forces, contacts) are not
   reproduced. Brax's 2- and 3-axis joints are chains of hinges here, with Brax's ranges read in
   MuJoCo's sense: that reading reproduces Brax's default pose exactly (torso z 1.2439, centre of
-  mass (0.063, 0, 0.8836)). Brax's reset adds one physics step of random actions; blx's reset is the
-  deterministic default pose.
+  mass (0.063, 0, 0.8836)). Brax's reset adds one control step of random actions U[0, 0.5); blx's
+  reset is the deterministic default pose unless ``global_options.reset_actions`` is 0.5, which
+  takes that step (the torso then drops from 1.2449 to 1.2438 m, Brax's from 1.2439 to 1.2430). It
+  is off by default, so that the rows trained so far stay reproducible from their configs.
   """
   deg = math.radians
   limits = dict(limited="true", damping=20.0, armature=0, solreflimit=ANT_LIMIT)

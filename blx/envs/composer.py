@@ -61,6 +61,9 @@ GLOBAL_OPTIONS: dict[str, Any] = dict(
     ls_iterations=4,
     gravity=(0.0, 0.0, -9.81),
     reset_noise_scale=0.0,
+    # Brax v1's humanoid reset ends with one control step of actions drawn from U[0, 0.5) per
+    # motor (its only randomness); reset_actions=0.5 does the same here. 0: no such step.
+    reset_actions=0.0,
 )
 SOLVERS = ("Newton", "CG", "PGS")
 
@@ -99,11 +102,15 @@ MAX_STEPS_PER_CALL = 1000  # substeps per env step, solver iterations: more is a
 def _check_options(options: Any) -> dict[str, Any]:
   _check_keys("global_options", options, tuple(GLOBAL_OPTIONS))
   merged = {**GLOBAL_OPTIONS, **options}
-  for key in ("timestep", "reset_noise_scale"):
+  for key in ("timestep", "reset_noise_scale", "reset_actions"):
     if (not isinstance(merged[key], (int, float)) or isinstance(merged[key], bool)
         or not math.isfinite(merged[key]) or merged[key] < 0 or (
         key == "timestep" and merged[key] == 0)):
       raise _err(f"global_options.{key}", f"must be a {'positive' if key == 'timestep' else 'non-negative'} number, got {merged[key]!r}")
+  if merged["reset_actions"] > 1:
+    raise _err("global_options.reset_actions", "the reset step's actions are U[0, reset_actions) "
+               f"and actions lie in [-1, 1]: give a number in [0, 1], got "
+               f"{merged['reset_actions']!r}")
   for key in ("substeps", "iterations", "ls_iterations"):
     if (not isinstance(merged[key], int) or isinstance(merged[key], bool)
         or not 1 <= merged[key] <= MAX_STEPS_PER_CALL):

@@ -422,8 +422,11 @@ class Env:
 
   def reset(self, key: jax.Array) -> State:
     """Initial state: ``init_qpos`` (each component's default pose, resting on the floor where the
-    component asks for it) at rest, plus uniform noise of ``reset_noise_scale``."""
+    component asks for it) at rest, plus uniform noise of ``reset_noise_scale``; then, where
+    ``reset_actions`` a > 0, one control step with every action drawn from U[0, a) (Brax v1's
+    humanoid reset, a = 0.5), its reward and termination not counted."""
     scale = float(self.options["reset_noise_scale"])
+    push = float(self.options["reset_actions"])
     qpos = jnp.asarray(self.init_qpos)
     qvel = jnp.zeros(self.mj_model.nv, jnp.float32)
     if scale > 0:
@@ -432,9 +435,12 @@ class Env:
           jax.random.uniform(pos_key, (len(self._noise_qpos),), minval=-scale, maxval=scale))
       qvel = scale * jax.random.uniform(vel_key, (self.mj_model.nv,), minval=-1.0, maxval=1.0)
     data = mjx.forward(self.mjx_model, self._data0.replace(qpos=qpos, qvel=qvel))
+    contact = jnp.zeros((len(self._contact_bodies), 6))
+    if push > 0:
+      action = push * jax.random.uniform(jax.random.fold_in(key, 1), (self.action_size,))
+      data, contact = self._physics(data, action)
     metrics = {key: jnp.zeros(()) for key in self._metric_keys()}
     metrics["score"] = jnp.zeros(())
-    contact = jnp.zeros((len(self._contact_bodies), 6))
     obs = self._observe(data, contact)
     return State(data=data, obs=obs, reward=jnp.zeros(self.reward_shape), done=jnp.zeros(()),
                  metrics=metrics, info={}, contact=contact, truncation=jnp.zeros(()),
@@ -449,9 +455,8 @@ class Env:
     inside = (angle >= cut.low) & (angle <= cut.high)
     return action.at[cut.actuators].multiply(inside.astype(action.dtype))
 
-  def step(self, state: State, action: jax.Array) -> State:
-    """Advances ``substeps`` physics steps with ``action`` (clipped to [-1, 1]) held fixed."""
-    action = jnp.clip(action, -1.0, 1.0)
+  def _physics(self, data: Any, action: jax.Array) -> tuple[Any, jax.Array]:
+    """``substeps`` physics steps with ``action`` held fixed, and the contact change they made."""
     observe_contact = bool(self._contact_bodies)
 
     def substep(_, carry):
@@ -462,7 +467,12 @@ class Env:
       return data, contact
 
     contact = jnp.zeros((len(self._contact_bodies), 6))
-    data, contact = jax.lax.fori_loop(0, self.substeps, substep, (state.data, contact))
+    return jax.lax.fori_loop(0, self.substeps, substep, (data, contact))
+
+  def step(self, state: State, action: jax.Array) -> State:
+    """Advances ``substeps`` physics steps with ``action`` (clipped to [-1, 1]) held fixed."""
+    action = jnp.clip(action, -1.0, 1.0)
+    data, contact = self._physics(state.data, action)
     reward, done, metrics = self._reward(data, action)
     obs = self._observe(data, contact)
     return state.replace(data=data, obs=obs, reward=reward, done=done.astype(jnp.float32),

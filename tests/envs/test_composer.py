@@ -102,6 +102,26 @@ def test_point_vel_xy_reads_the_slide_velocity():
                              [0.8 * 0.81, -0.4 * 0.81], rtol=1e-4)
 
 
+def test_reset_actions_end_the_reset_with_one_step_of_random_positive_actions():
+  # Brax v1's humanoid reset: the default pose, then one control step with actions U[0, 0.5).
+  plain = make_env("point")
+  pushed = envs.create("point", edits={"global_options.reset_actions": 0.5})
+  key = jax.random.PRNGKey(3)
+  action = 0.5 * jax.random.uniform(jax.random.fold_in(key, 1), (2,))
+  expected = jax.jit(plain.step)(jax.jit(plain.reset)(key), action)
+  state = jax.jit(pushed.reset)(key)
+  np.testing.assert_allclose(state.obs, expected.obs, rtol=1e-6)
+  assert np.all(np.asarray(state.data.qvel) > 0)  # both motors pushed forward
+  # A reset is still an episode's start: no reward, not done.
+  assert float(state.reward) == 0.0 and float(state.done) == 0.0
+  other = jax.jit(pushed.reset)(jax.random.PRNGKey(4))
+  assert not np.allclose(other.obs, state.obs)
+  np.testing.assert_allclose(jax.jit(plain.reset)(key).data.qvel, 0.0)
+  for bad in (-0.1, 1.5, True, float("nan")):
+    with pytest.raises(ValueError, match="global_options.reset_actions"):
+      envs.create("point", edits={"global_options.reset_actions": bad})
+
+
 TERMS_DESC = dict(
     components=dict(
         a=dict(component="point", reward_fns=dict(
