@@ -154,19 +154,19 @@ def _mean_pairwise_distance(a: jax.Array, b: jax.Array, block: int, wa: jax.Arra
     w = jnp.pad(w.astype(x.dtype), (0, blocks * block - n))  # padding weighs 0
     return x.reshape(blocks, block, -1), w.reshape(blocks, block)
 
-  a_blocks, a_mask = pad(a, wa)
-  b_blocks, b_mask = pad(b, wb)
+  a_blocks, a_weights = pad(a, wa)
+  b_blocks, b_weights = pad(b, wb)
 
   def row(args):
-    xa, ma = args
+    xa, va = args
 
     def col(args):
-      xb, mb = args
+      xb, vb = args
       d = jnp.sqrt(jnp.maximum(jnp.sum((xa[:, None] - xb[None]) ** 2, -1), 0.0))
-      return jnp.sum(d * ma[:, None] * mb[None])
-    return jnp.sum(jax.lax.map(col, (b_blocks, b_mask)))
+      return jnp.sum(d * va[:, None] * vb[None])
+    return jnp.sum(jax.lax.map(col, (b_blocks, b_weights)))
 
-  total = jnp.sum(jax.lax.map(row, (a_blocks, a_mask)))
+  total = jnp.sum(jax.lax.map(row, (a_blocks, a_weights)))
   return total / (jnp.sum(wa) * jnp.sum(wb))
 
 
