@@ -8,8 +8,8 @@ and splits the scored states into those taken before each episode ended and thos
 Per seed, on the paper's skill episodes (each skill's latent, 10 episodes of the env's length, the
 last 500 steps scored, actions sampled unless ``--deterministic``; no reset after a fall, as in
 Braxlines' evaluation):
-- ``mi``, ``entropy``: the protocol's MI and H(s) over every scored state (as ``eval.json``, on
-  other random episodes);
+- ``mi``, ``entropy``: MI and H(s) over every state of blx's window, the last 500 steps (as
+  ``eval/mi`` and ``eval/entropy`` in ``eval.json``, on other random episodes);
 - ``alive_share``: the share of scored states taken before their episode ended;
 - ``mi_alive``, ``entropy_alive``: MI and H(s) of those states alone (``metrics.alive_mask``);
 - ``mi_subset``: the control. MI of random subsets that keep as many states of each skill as the
@@ -29,8 +29,8 @@ Braxlines' evaluation):
 
 A D-min run (GAIL, AIRL, ...) is rolled out as its evaluator does (10 episodes, every 10th of the
 last 500 steps scored against the target's samples) and gets, per seed:
-- ``energy_distance``: the protocol's energy distance, every scored state (as ``eval.json``, on
-  other random episodes); ``alive_share`` as above;
+- ``energy_distance``: the energy distance of every state of blx's window (as
+  ``eval/energy_distance`` in ``eval.json``, on other random episodes); ``alive_share`` as above;
 - ``energy_distance_alive``: the scored states taken before the fall alone (NaN where there are
   none);
 - ``energy_distance_upright``: every 10th state of the whole episode up to its fall, scored or not:
