@@ -151,14 +151,7 @@ def analyse(run: runs.Run, params, key: jax.Array, *, deterministic: bool, draws
           "speed_alive": (speed * alive).sum() / jnp.maximum(alive.sum(), 1.0),
           "speed_after": (speed * after).sum() / jnp.maximum(after.sum(), 1.0),
           "end_step": jnp.median(ended), "last_end_step": ended.max(),
-          "mi_braxlines": brax["mi"].mean(), "braxlines_end": _braxlines_end(done)}
-
-
-def _braxlines_end(done: jax.Array) -> jax.Array:
-  """The step E before which Braxlines' rollout of these episodes (one batch) stops: the first at
-  which every episode is done at once (``metrics.braxlines_window``)."""
-  all_done = jnp.all(done.reshape(-1, done.shape[-1]) > 0, axis=0)
-  return jnp.where(jnp.any(all_done), jnp.argmax(all_done) + 1, done.shape[-1])
+          "mi_braxlines": brax["mi"].mean(), "braxlines_end": metrics.braxlines_end(done)}
 
 
 def analyse_dmin(run: runs.Run, params, key: jax.Array, *, deterministic: bool,
@@ -182,10 +175,10 @@ def analyse_dmin(run: runs.Run, params, key: jax.Array, *, deterministic: bool,
   alive = metrics.alive_mask(done, last, every).reshape(-1)
   steps = done.shape[-1]
   whole = obs[:, ::every].reshape(-1, len(indices))
-  up = metrics.alive_mask(done, steps, every).reshape(-1)
+  up_t = metrics.alive_mask(done, steps)                                        # [M, T]
+  up = up_t[:, ::every].reshape(-1)
   ended = envs.alive_before(jnp.moveaxis(done.astype(jnp.float32), -1, 0)).sum(0)  # [M]
   speed = lambda x, w: (jnp.linalg.norm(x, axis=-1) * w).sum() / jnp.maximum(w.sum(), 1.0)
-  up_t = metrics.alive_mask(done, steps)                                        # [M, T]
   out = {f"feature_upright/{i}": (obs[..., k] * up_t).sum() / jnp.maximum(up_t.sum(), 1.0)
          for k, i in enumerate(spec.obs_indices)}
   means = spec.target.means
@@ -208,7 +201,7 @@ def analyse_dmin(run: runs.Run, params, key: jax.Array, *, deterministic: bool,
               before.reshape(-1, len(indices)), target,
               weights=jnp.broadcast_to(metrics.braxlines_window(done, last, every),
                                        done.shape).reshape(-1)),
-          "braxlines_end": _braxlines_end(done)}
+          "braxlines_end": metrics.braxlines_end(done)}
 
 
 def plot(directory: str) -> str:
@@ -248,9 +241,7 @@ def plot(directory: str) -> str:
   band(ax, "eval/alive_share", "alive share", "C2")
   ax.set_ylim(0, 1)
   ax.set_title("share of scored states taken before the fall")
-  for ax in axes[:2]:
-    ax.set_xlabel("env steps per seed (millions)")
-    ax.grid(alpha=0.3)
+  _over_training(axes[:2])
   if analysis:
     ax = axes[2]
     v = analysis["per_seed"]
@@ -267,13 +258,24 @@ def plot(directory: str) -> str:
     ax.set_title(f"each seed at the end ({actions} actions, 10 episodes per skill)", fontsize=9)
     ax.legend(fontsize=7)
     ax.grid(alpha=0.3)
-  fig.suptitle(f"{spec.objective} on {spec.env}, {len(spec.seeds)} seeds: how much "
-               "of the MI the falls take (mean ± std over seeds)", fontsize=10)
+  return _save(fig, plt, directory, f"{spec.objective} on {spec.env}, {len(spec.seeds)} seeds: "
+               "how much of the MI the falls take (mean ± std over seeds)")
+
+
+def _save(fig, plt, directory: str, title: str) -> str:
+  """Titles ``fig``, writes it to ``directory/falls.png`` and returns the path."""
+  fig.suptitle(title, fontsize=10)
   fig.tight_layout()
   path = os.path.join(directory, "falls.png")
   fig.savefig(path, dpi=120)
   plt.close(fig)
   return path
+
+
+def _over_training(axes) -> None:
+  for ax in axes:
+    ax.set_xlabel("env steps per seed (millions)")
+    ax.grid(alpha=0.3)
 
 
 def _band(ax, rows, key, label, color):
@@ -307,9 +309,7 @@ def _plot_dmin(directory, spec, rows, analysis, plt) -> str:
   ax.set_title("episode length: steps before the fall (1,000: none)", fontsize=9)
   ax.set_ylabel("steps")
   ax.legend(fontsize=7)
-  for ax in axes[:2]:
-    ax.set_xlabel("env steps per seed (millions)")
-    ax.grid(alpha=0.3)
+  _over_training(axes[:2])
   if analysis:
     ax = axes[2]
     v = analysis["per_seed"]
@@ -329,13 +329,8 @@ def _plot_dmin(directory, spec, rows, analysis, plt) -> str:
     ax.set_title(f"each seed at the end ({actions} actions, 10 episodes)", fontsize=9)
     ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.02, 1.0))  # off the points
     ax.grid(alpha=0.3)
-  fig.suptitle(f"{spec.objective} on {spec.env}, {len(spec.seeds)} seeds: the energy distance and "
-               "the falls (mean ± std over seeds)", fontsize=10)
-  fig.tight_layout()
-  path = os.path.join(directory, "falls.png")
-  fig.savefig(path, dpi=120)
-  plt.close(fig)
-  return path
+  return _save(fig, plt, directory, f"{spec.objective} on {spec.env}, {len(spec.seeds)} seeds: "
+               "the energy distance and the falls (mean ± std over seeds)")
 
 
 def main(argv=None) -> int:

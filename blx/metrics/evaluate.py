@@ -34,7 +34,7 @@ from blx.objectives.specs import DminSpec, MimaxSpec
 
 __all__ = ["rollout", "episode_batch", "Evaluator", "latents_for_evaluation", "eval_indices",
            "mimax_evaluator", "dmin_evaluator", "mode_shares", "alive_share", "alive_mask",
-           "braxlines_window", "evaluate_mimax", "evaluate_dmin"]
+           "braxlines_end", "braxlines_window", "evaluate_mimax", "evaluate_dmin"]
 
 
 def rollout(env: Any, policy: Callable, params: dict, latents: jax.Array, key: jax.Array, *,
@@ -269,6 +269,14 @@ def alive_mask(done: jax.Array, last_steps: int, every: int = 1) -> jax.Array:
   return jnp.moveaxis(alive, 0, -1)[..., -last_steps:][..., ::every]
 
 
+def braxlines_end(done: jax.Array) -> jax.Array:
+  """E, the step before which Braxlines' rollout of a batch stops: the first E >= 1 at which every
+  episode's done flag is 1 at once (``done [..., T]`` holds the flags of s_1 .. s_T, per step; all
+  leading axes are episodes of one batch), or T if that never happens."""
+  all_done = jnp.all(done.reshape(-1, done.shape[-1]) > 0, axis=0)      # [T]: s_1 .. s_T
+  return jnp.where(jnp.any(all_done), jnp.argmax(all_done) + 1, done.shape[-1])
+
+
 def braxlines_window(done: jax.Array, last_steps: int, every: int = 1) -> jax.Array:
   """The states Braxlines' evaluators score, as a 0/1 mask over the states s_0 .. s_{T-1} that
   each step starts from (the reset state first).
@@ -276,7 +284,8 @@ def braxlines_window(done: jax.Array, last_steps: int, every: int = 1) -> jax.Ar
   ``done [N, T]``: the done flag of s_1 .. s_T (the env's flag after each step, per step, not
   cumulative), for the N episodes of one evaluation batch. Braxlines' rollout keeps s_0, s_1, ...
   while not every episode of the batch is done at once, so it stops before the first E >= 1 at
-  which all N flags are 1 (E = T if they never are: the step limit sets them at T). Its evaluators
+  which all N flags are 1 (``braxlines_end``; E = T if they never are: the step limit sets them
+  at T). Its evaluators
   then score the last ``last_steps`` states it kept, every ``every``-th from the first of those:
   s_j for j in [max(0, E - last_steps), E) with (j - max(0, E - last_steps)) % every == 0. So where
   every episode of the batch ends early, the window moves to before the ends, reset state
@@ -284,8 +293,7 @@ def braxlines_window(done: jax.Array, last_steps: int, every: int = 1) -> jax.Ar
   instead. Returns ``[T]`` (the same window for every episode of the batch)."""
   chex.assert_rank(done, 2)
   steps = done.shape[1]
-  all_done = jnp.all(done > 0, axis=0)                                  # [T]: s_1 .. s_T
-  end = jnp.where(jnp.any(all_done), jnp.argmax(all_done) + 1, steps)  # E
+  end = braxlines_end(done)
   start = jnp.maximum(0, end - last_steps)
   j = jnp.arange(steps)
   return ((j >= start) & (j < end) & ((j - start) % every == 0)).astype(jnp.float32)

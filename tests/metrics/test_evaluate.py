@@ -240,6 +240,7 @@ def test_braxlines_window_moves_before_the_ends_when_every_episode_ends_early():
   done[1, 11:] = 1.0
   window = lambda last, every: np.flatnonzero(metrics.braxlines_window(jnp.asarray(done), last,
                                                                        every))
+  assert int(metrics.braxlines_end(jnp.asarray(done))) == 7
   np.testing.assert_array_equal(window(500, 1), np.arange(7))
   np.testing.assert_array_equal(window(4, 1), [3, 4, 5, 6])
   np.testing.assert_array_equal(window(6, 2), [1, 3, 5])
