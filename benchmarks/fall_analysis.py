@@ -46,7 +46,11 @@ last 500 steps scored against the target's samples) and gets, per seed:
   before the fall: which way, and how fast, a seed goes while it is up;
 - ``episode_mode_share_upright/k`` (a target of several modes): the share of episodes whose states
   before the fall are mostly nearest to mode k. A policy that picks one mode in every episode
-  scores 1 on it; one that matches the target, 1/K on each.
+  scores 1 on it; one that matches the target, 1/K on each;
+- ``logit_mode/k``, ``logit_upright`` (a learned discriminator: GAIL, GAIL2, AIRL, FAIRL): the
+  discriminator's clipped logit, which the reward transforms, averaged over the target's samples
+  nearest mode k, and over the policy's own states before the fall. Whether the learned reward
+  still pays for a mode the policy never runs.
 It also prints the energy distance of a body at rest (every state at 0), the reference a policy
 that never moves would score.
 
@@ -135,12 +139,8 @@ def analyse(run: runs.Run, params, key: jax.Array, *, deterministic: bool, draws
     return mi((rank < per_skill.sum(-1, keepdims=True)).astype(jnp.float32).reshape(-1))["mi"]
 
   control = jax.vmap(subset)(jax.random.split(draw_key, draws)).mean(0)
-  window = metrics.braxlines_window(done.reshape(-1, done.shape[-1]), last)  # one batch
-  brax = metrics.mutual_information(
-      before.reshape(-1, len(indices)),
-      jnp.repeat(jnp.arange(num), before.shape[1] * before.shape[2]), bins=BINS,
-      value_range=(-scale, scale), num_labels=num,
-      weights=jnp.broadcast_to(window, before.shape[:3]).reshape(-1))
+  brax = metrics.braxlines_mutual_information(before, done, last, bins=BINS,
+                                              value_range=(-scale, scale))
   speed = jnp.linalg.norm(states, axis=-1)
   after = 1.0 - alive
   ended = envs.alive_before(jnp.moveaxis(done.astype(jnp.float32), -1, 0)).sum(0)  # [L, M]
@@ -189,6 +189,16 @@ def analyse_dmin(run: runs.Run, params, key: jax.Array, *, deterministic: bool,
     votes = (jax.nn.one_hot(nearest, len(means)) * up_t[..., None]).sum(1)      # [M, K]
     majority = jax.nn.one_hot(jnp.argmax(votes, -1), len(means)).mean(0)
     out.update({f"episode_mode_share_upright/{k}": majority[k] for k in range(len(means))})
+    if spec.logit is not None:
+      # What the learned reward pays at each mode: the discriminator's clipped logit, averaged over
+      # the target's own samples nearest mode k.
+      logits = jax.vmap(spec.logit, (None, 0))(params.objective, target)
+      near = jax.nn.one_hot(jnp.argmin(((target[:, None] - means) ** 2).sum(-1), -1), len(means))
+      out.update({f"logit_mode/{k}": (logits * near[:, k]).sum() / near[:, k].sum()
+                  for k in range(len(means))})
+  if spec.logit is not None:
+    logits = jax.vmap(jax.vmap(spec.logit, (None, 0)), (None, 0))(params.objective, obs)
+    out["logit_upright"] = (logits * up_t).sum() / jnp.maximum(up_t.sum(), 1.0)
   return out | {"energy_distance": metrics.energy_distance(scored, target),
           "alive_share": alive.mean(),
           "energy_distance_alive": metrics.energy_distance(scored, target, weights=alive),

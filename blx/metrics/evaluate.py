@@ -34,7 +34,8 @@ from blx.objectives.specs import DminSpec, MimaxSpec
 
 __all__ = ["rollout", "episode_batch", "Evaluator", "latents_for_evaluation", "eval_indices",
            "mimax_evaluator", "dmin_evaluator", "mode_shares", "alive_share", "alive_mask",
-           "braxlines_end", "braxlines_window", "evaluate_mimax", "evaluate_dmin"]
+           "braxlines_end", "braxlines_window", "braxlines_mutual_information", "evaluate_mimax",
+           "evaluate_dmin"]
 
 
 def rollout(env: Any, policy: Callable, params: dict, latents: jax.Array, key: jax.Array, *,
@@ -196,13 +197,8 @@ def mimax_evaluator(env: Any, objective: Objective, *, num_latents: int = 10,
                                        num_labels=num, weights=alive)
     out["eval/mi_alive"] = kept["mi"].mean()
     out["eval/entropy_alive"] = kept["entropy"].mean()
-    skills = before[:num]                                 # [L, M, T, D]: s_0 .. s_{T-1}
-    window = braxlines_window(done[:num].reshape(-1, done.shape[-1]), last_steps)
-    brax = particle.mutual_information(
-        skills.reshape(-1, len(indices)),
-        jnp.repeat(jnp.arange(num), skills.shape[1] * skills.shape[2]), bins=bins,
-        value_range=value_range, num_labels=num,
-        weights=jnp.broadcast_to(window, skills.shape[:3]).reshape(-1))
+    brax = braxlines_mutual_information(before[:num], done[:num], last_steps, bins=bins,
+                                        value_range=value_range)
     out["eval/mi_braxlines"] = brax["mi"].mean()
     out["eval/entropy_braxlines"] = brax["entropy"].mean()
     lgr = particle.latent_goal_reaching(reached, goals, last_steps=last_steps)
@@ -297,6 +293,21 @@ def braxlines_window(done: jax.Array, last_steps: int, every: int = 1) -> jax.Ar
   start = jnp.maximum(0, end - last_steps)
   j = jnp.arange(steps)
   return ((j >= start) & (j < end) & ((j - start) % every == 0)).astype(jnp.float32)
+
+
+def braxlines_mutual_information(states: jax.Array, done: jax.Array, last_steps: int, *,
+                                 bins: int, value_range: tuple[float, float]) -> dict:
+  """``particle.mutual_information`` of skill episodes in Braxlines' window: ``states [L, M, T, D]``
+  the states s_0 .. s_{T-1} each step starts from, for L skills of M episodes (one evaluation
+  batch), ``done [L, M, T]`` their per-step done flags; the labels are the skills. Each skill's
+  states are weighted by ``braxlines_window`` over the whole batch."""
+  chex.assert_rank([states, done], [4, 3])
+  num, per_skill = states.shape[0], states.shape[1] * states.shape[2]
+  window = braxlines_window(done.reshape(-1, done.shape[-1]), last_steps)
+  return particle.mutual_information(
+      states.reshape(-1, states.shape[-1]), jnp.repeat(jnp.arange(num), per_skill), bins=bins,
+      value_range=value_range, num_labels=num,
+      weights=jnp.broadcast_to(window, states.shape[:3]).reshape(-1))
 
 
 def alive_share(done: jax.Array, last_steps: int, every: int = 1) -> jax.Array:

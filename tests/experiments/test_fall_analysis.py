@@ -12,7 +12,7 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from blx import envs, metrics, objectives
+from blx import envs, metrics, objectives, training
 
 _PATH = pathlib.Path(__file__).resolve().parents[2] / "benchmarks" / "fall_analysis.py"
 _spec = importlib.util.spec_from_file_location("fall_analysis", _PATH)
@@ -125,7 +125,9 @@ def test_a_dmin_row_is_split_at_the_falls_and_scored_against_its_target():
   objective = objectives.gail(obs_indices=(0,), obs_scale=8.0)
   target = jnp.asarray(objective.spec.target.samples)[:, :1]
   run = SimpleNamespace(env=envs.episode(_FallsAtSix(), 8), policy=_climbs, objective=objective)
-  out = jax.jit(lambda k: fall_analysis.analyse_dmin(run, {}, k, deterministic=True,
+  params = training.PolicyParams(normalizer=None, policy={},
+                                 objective=objective.init(jax.random.PRNGKey(3), 1))
+  out = jax.jit(lambda k: fall_analysis.analyse_dmin(run, params, k, deterministic=True,
                                                      num_episodes=3))(jax.random.PRNGKey(0))
   ed = lambda values: float(metrics.energy_distance(
       jnp.tile(jnp.asarray(values, jnp.float32), 3)[:, None], target))
@@ -148,4 +150,12 @@ def test_a_dmin_row_is_split_at_the_falls_and_scored_against_its_target():
   positive = int(np.argmax(means))
   np.testing.assert_allclose(out[f"episode_mode_share_upright/{positive}"], 1.0)
   np.testing.assert_allclose(out[f"episode_mode_share_upright/{1 - positive}"], 0.0)
-
+  # The discriminator's logit over the target's samples of each mode (here: by sign), and over
+  # the states before the fall (1 .. 6).
+  logit = jax.vmap(objective.spec.logit, (None, 0))
+  of = lambda x: float(logit(params.objective, jnp.asarray(x, jnp.float32)).mean())
+  t = np.asarray(target)
+  np.testing.assert_allclose(out[f"logit_mode/{positive}"], of(t[t[:, 0] > 0]), rtol=1e-5)
+  np.testing.assert_allclose(out[f"logit_mode/{1 - positive}"], of(t[t[:, 0] < 0]), rtol=1e-5)
+  np.testing.assert_allclose(out["logit_upright"], of(np.arange(1.0, 7.0)[:, None]), rtol=1e-5)
+  assert abs(out[f"logit_mode/{positive}"] - out[f"logit_mode/{1 - positive}"]) > 1e-3

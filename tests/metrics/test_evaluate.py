@@ -250,3 +250,22 @@ def test_braxlines_window_moves_before_the_ends_when_every_episode_ends_early():
   done[:, 19] = 1.0
   np.testing.assert_array_equal(window(5, 1), np.arange(15, 20))
   np.testing.assert_array_equal(window(10, 5), [10, 15])
+
+
+def test_braxlines_mutual_information_is_the_mi_of_the_kept_window_alone():
+  # 2 skills x 2 episodes x 8 steps. Every episode is down from step 3 (E = 3), so with 6 scored
+  # steps Braxlines keeps s_0 .. s_2. Before the fall skill 0 sits at -1 and skill 1 at +1 (MI
+  # log 2); from s_3 on both lie at 0 and would mix them.
+  states = np.zeros((2, 2, 8, 1), np.float32)
+  states[0, :, :3] = -1.0
+  states[1, :, :3] = 1.0
+  done = np.zeros((2, 2, 8), np.float32)
+  done[..., 2:] = 1.0
+  out = metrics.braxlines_mutual_information(jnp.asarray(states), jnp.asarray(done), 6, bins=20,
+                                             value_range=(-2.0, 2.0))
+  kept = metrics.mutual_information(
+      jnp.asarray(states[:, :, :3].reshape(-1, 1)), jnp.repeat(jnp.arange(2), 6), bins=20,
+      value_range=(-2.0, 2.0), num_labels=2)
+  np.testing.assert_allclose(out["mi"], kept["mi"], rtol=1e-6)
+  np.testing.assert_allclose(out["entropy"], kept["entropy"], rtol=1e-6)
+  np.testing.assert_allclose(out["mi"], math.log(2), rtol=1e-5)
