@@ -15,16 +15,19 @@ same start. Per candidate:
   iterations, 50 line-search steps, tolerance 1e-10), under the same actions. The half-cheetah is
   chaotic under random actions, so no step follows the truth for ever: ``chaos_s`` is how long the
   truth stays within the same band of itself started 1e-6 rad away (the horizon no integrator can
-  beat), and blx's own step is the bar a candidate must meet. Median over episodes.
+  beat); blx's own step's figure is the reference. It ranks per-step error, not behaviour.
+  Median over episodes.
 - over ``--steps`` env steps of each episode (MJX, the step as trained): the torso's mean and std
   x velocity, its mean height, the mean |pitch rate| and the share of steps flipped (|pitch| > 90
-  deg). Signatures a policy's behaviour lives on; compare them with blx's step's, which the tests
-  hold to Brax v1's (``tests/envs/test_brax_bodies.py``).
+  deg from the reset pose: turned over, or turned round once or more). Signatures a policy's
+  behaviour lives on; compare them with blx's step's, which the tests hold to Brax v1's
+  (``tests/envs/test_brax_bodies.py``).
 - ``gait_vx/F``: the torso's mean x velocity over the last half of an episode driven open-loop by
   a bounding gait at F Hz (every motor a sine, the back leg half a period behind the front; the
   same actions for every candidate): how fast one fixed gait carries the body, the quantity the
   paper's x-velocity skills and targets are measured on. ``gait_flipped/F``: its share of flipped
-  steps.
+  steps. (On the H200, these gaits turned the body over in 62-98% of their steps under every
+  step tried, so their speeds carried no signal; read them beside ``gait_flipped``.)
 - with ``--speed`` (meant for the GPU): env steps/s of the jitted, vmapped env step at
   ``--num-envs``, and its ratio to blx's step measured in the same call.
 
@@ -165,7 +168,14 @@ def main() -> None:
       raise SystemExit(f"--{flag.replace('_', '-')} must be at least 1")
   if args.horizon > args.steps:
     raise SystemExit(f"--horizon ({args.horizon}) must not exceed --steps ({args.steps})")
-  candidates = json.loads(args.candidates) if args.candidates else CANDIDATES
+  try:
+    candidates = json.loads(args.candidates) if args.candidates else CANDIDATES
+  except json.JSONDecodeError as e:
+    raise SystemExit(f"--candidates: not JSON ({e}); give {{\"name\": {{\"iterations\": 2}}}}")
+  if not isinstance(candidates, dict) or not all(isinstance(v, dict) for v in candidates.values()):
+    raise SystemExit(f"--candidates: give a JSON object of name -> global_options edits, e.g. "
+                     f"{{\"8 x 6.25 ms\": {{\"timestep\": 0.00625, \"substeps\": 8}}}}; got "
+                     f"{args.candidates}")
   candidates = {BLX: {}, **candidates}
 
   base = make({})

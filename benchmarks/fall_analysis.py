@@ -268,8 +268,15 @@ def plot(directory: str) -> str:
     ax.set_title(f"each seed at the end ({actions} actions, 10 episodes per skill)", fontsize=9)
     ax.legend(fontsize=7)
     ax.grid(alpha=0.3)
-  return _save(fig, plt, directory, f"{spec.objective} on {spec.env}, {len(spec.seeds)} seeds: "
-               "how much of the MI the falls take (mean ± std over seeds)")
+  return _save(fig, plt, directory, f"{_run_label(spec)}: how much of the MI the falls take "
+               "(mean ± std over seeds)")
+
+
+def _run_label(spec: runs.RunSpec) -> str:
+  """"OBJECTIVE on ENV, N seeds", with the env's edits where the run has any (an ablation)."""
+  edits = (spec.env_params or {}).get("edits")
+  where = f"{spec.env} ({', '.join(f'{k} {v}' for k, v in edits.items())})" if edits else spec.env
+  return f"{spec.objective} on {where}, {len(spec.seeds)} seeds"
 
 
 def _save(fig, plt, directory: str, title: str) -> str:
@@ -339,8 +346,8 @@ def _plot_dmin(directory, spec, rows, analysis, plt) -> str:
     ax.set_title(f"each seed at the end ({actions} actions, 10 episodes)", fontsize=9)
     ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.02, 1.0))  # off the points
     ax.grid(alpha=0.3)
-  return _save(fig, plt, directory, f"{spec.objective} on {spec.env}, {len(spec.seeds)} seeds: "
-               "the energy distance and the falls (mean ± std over seeds)")
+  return _save(fig, plt, directory, f"{_run_label(spec)}: the energy distance and the falls "
+               "(mean ± std over seeds)")
 
 
 def main(argv=None) -> int:
