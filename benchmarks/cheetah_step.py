@@ -136,19 +136,8 @@ def gait_actions(hz: float, steps: int, dt: float) -> np.ndarray:
 
 def speed(env, num_envs: int, steps: int = 50) -> float:
   """Env steps/s of the jitted, vmapped env step (best of 3 after compiling)."""
-  keys = jax.random.split(jax.random.PRNGKey(0), num_envs)
-  state = jax.jit(jax.vmap(env.reset))(keys)
-  actions = jax.random.uniform(jax.random.PRNGKey(1), (steps, num_envs, env.action_size),
-                               minval=-1, maxval=1)
-
-  @jax.jit
-  def run(state, actions):
-    def one(s, a):
-      s = jax.vmap(env.step)(s, a)
-      return s, s.reward.sum()
-    return jax.lax.scan(one, state, actions)[1].sum()
-
-  _, calls = common.time_calls(run, lambda i: (state, actions), repeats=3)
+  run, args = common.env_step_runner(env, num_envs, steps)
+  _, calls = common.time_calls(run, lambda i: args, repeats=3)
   return num_envs * steps / min(calls)
 
 

@@ -31,6 +31,25 @@ def raw_physics_runner(env) -> Callable:
   return run
 
 
+def env_step_runner(env, num_envs: int, steps: int) -> tuple[Callable, tuple]:
+  """A jitted ``(state [N], actions [T, N, A]) -> scalar``: T steps of the env's own vmapped
+  ``step`` (physics, observations, rewards, termination), and its arguments: ``num_envs`` reset
+  states and uniform random actions. The scalar (a sum of rewards) only forces the work."""
+  keys = jax.random.split(jax.random.PRNGKey(0), num_envs)
+  state = jax.jit(jax.vmap(env.reset))(keys)
+  actions = jax.random.uniform(jax.random.PRNGKey(1), (steps, num_envs, env.action_size),
+                               minval=-1, maxval=1)
+
+  @jax.jit
+  def run(state, actions):
+    def one(s, a):
+      s = jax.vmap(env.step)(s, a)
+      return s, s.reward.sum()
+    return jax.lax.scan(one, state, actions)[1].sum()
+
+  return run, (state, actions)
+
+
 def time_calls(fn, args_for, repeats: int) -> tuple[float, list[float]]:
   """Compile seconds and the wall seconds of each of ``repeats`` calls of ``fn(*args_for(i))``: a
   first call (``i`` = 0, compile included) timed apart, then calls ``i`` = 1..repeats, each

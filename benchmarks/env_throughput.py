@@ -37,19 +37,8 @@ def _time(fn, *args, repeats=3):
 
 def measure(name: str, num_envs: int, steps: int) -> dict:
   env = envs.unwrap(envs.create(name))
-  keys = jax.random.split(jax.random.PRNGKey(0), num_envs)
   t0 = time.perf_counter()
-  state = jax.jit(jax.vmap(env.reset))(keys)
-  actions = jax.random.uniform(jax.random.PRNGKey(1), (steps, num_envs, env.action_size),
-                               minval=-1, maxval=1)
-
-  @jax.jit
-  def run_env(state, actions):
-    def one(s, a):
-      s = jax.vmap(env.step)(s, a)
-      return s, s.reward.sum()
-    return jax.lax.scan(one, state, actions)[1].sum()
-
+  run_env, (state, actions) = common.env_step_runner(env, num_envs, steps)
   run_raw = common.raw_physics_runner(env)
 
   jax.block_until_ready(run_env(state, actions))

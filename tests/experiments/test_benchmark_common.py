@@ -1,15 +1,18 @@
 """benchmarks/common.py: the one-iteration-per-chunk config that the timing benchmarks
-(train_throughput.py, profile_ppo.py) run a jitted chunk with, and the timing of a jitted call
-(chunk_costs.py, host_loop.py)."""
+(train_throughput.py, profile_ppo.py) run a jitted chunk with, the timing of a jitted call
+(chunk_costs.py, host_loop.py), and the vmapped env step timed by env_throughput.py and
+cheetah_step.py."""
 
 import importlib.util
 import pathlib
 import sys
 
+import jax
 import jax.numpy as jnp
+import numpy as np
 import pytest
 
-from blx import training
+from blx import envs, training
 from blx.objectives import task
 from tests.conftest import make_env
 
@@ -48,3 +51,14 @@ def test_the_first_call_is_kept_apart_and_every_timed_call_gets_its_own_argument
   first, times = common.time_calls(fn, lambda i: (i,), repeats=3)
   assert seen == [0, 1, 2, 3]  # one untimed first call (the compile), then 3 timed ones
   assert len(times) == 3 and first >= 0 and all(t >= 0 for t in times)
+
+
+def test_env_step_runner_sums_the_rewards_of_the_env_steps_it_runs():
+  env = envs.unwrap(make_env("point"))
+  run, (state, actions) = common.env_step_runner(env, num_envs=3, steps=4)
+  assert actions.shape == (4, 3, env.action_size) and state.obs.shape[0] == 3
+  total, s = 0.0, state
+  for a in actions:
+    s = jax.vmap(env.step)(s, a)
+    total += float(s.reward.sum())
+  np.testing.assert_allclose(float(run(state, actions)), total, rtol=1e-5)
