@@ -13,7 +13,11 @@ Studies (``--list`` prints them):
   significant gain; too much penalty hurts). The paper does not give its weights; these are ours;
 - ``skills``: DIAYN with 2, 4, 8 (the paper's row) and 16 skills;
 - ``run_reward``: DIAYN on the xy velocity with the ant's own running reward added
-  (``env_reward_multiplier`` 0, the row, and 1): distinct gaits that all run.
+  (``env_reward_multiplier`` 0, the row, and 1): distinct gaits that all run;
+- ``step_diayn``, ``step_gail`` (HalfCheetah only; not the paper's): DIAYN and GAIL at blx's
+  half-cheetah step (16 substeps of 3.125 ms) and at 8 substeps of 6.25 ms (``env_params.edits``),
+  both with 4 Newton iterations: whether the step ``cheetah_step.py`` found about twice as fast
+  learns the same at the same env steps (run with ``--steps`` below the paper's to fit a device call).
 
 Each arm is a point of one ``blx sweep`` (``benchmarks/paper_tables.py`` gives the row's settings),
 trained with ``--eval-metrics`` so that MI, H(s) or the energy distance is logged at every
@@ -33,6 +37,7 @@ import importlib.util
 import json
 import math
 import os
+import textwrap
 
 _HERE = os.path.dirname(os.path.abspath(__file__))
 _spec = importlib.util.spec_from_file_location("paper_tables",
@@ -43,15 +48,44 @@ _spec.loader.exec_module(paper_tables)
 
 @dataclasses.dataclass(frozen=True)
 class Study:
-  """Arms that differ from the paper's row of ``family`` in the objective option ``option``; the
-  first value is the row's own."""
+  """Arms that differ from the paper's row of ``family`` in one setting: ``option`` of the spec's
+  ``group`` (``"options"``, the objective's options, or ``"env_params"``, the env's parameters).
+  The first value is the row's own."""
 
   family: str                  # the paper_tables family whose settings every arm shares
   objectives: tuple[str, ...]
   option: str
   values: tuple
   metrics: tuple[str, ...]     # eval.json / metrics.csv keys; compared at the last evaluation
-  claim: str                   # the paper's conclusion the study tests
+  claim: str                   # the conclusion the study tests (the paper's, unless ``paper`` is off)
+  group: str = "options"
+  envs: tuple[str, ...] | None = None   # the envs the study is defined for (None: every one)
+  labels: tuple[str, ...] | None = None  # legend names of the values (default: the arm's name)
+  paper: bool = True           # whether ``claim`` is the paper's
+
+  def label(self, name: str, run_spec) -> str:
+    """An arm's legend entry: its sweep point's name, or where ``labels`` are given, the value's
+    label (after the objective's name when the study has several)."""
+    if self.labels is None:
+      return name.replace("__", ", ")
+    label = self.labels[self.values.index(self.value(run_spec))]
+    return f"{run_spec.objective}, {label}" if len(self.objectives) > 1 else label
+
+  @property
+  def claim_line(self) -> str:
+    return f"{'the paper' if self.paper else 'tested (not a claim of the paper)'}: {self.claim}"
+
+  def value(self, run_spec) -> object:
+    """The studied setting's value in one arm's ``runs.RunSpec``."""
+    return (run_spec.objective_options if self.group == "options"
+            else run_spec.env_params).get(self.option, self.values[0])
+
+
+# The half-cheetah's cheaper step (``benchmarks/cheetah_step.py``, session 18): 8 substeps of
+# 6.25 ms with blx's 4 Newton iterations instead of 16 of 3.125 ms, the same 50 ms env step.
+CHEETAH_FAST_STEP = {"global_options.timestep": 0.00625, "global_options.substeps": 8}
+_STEP_CLAIM = "8 substeps of 6.25 ms learn what blx's 16 of 3.125 ms learn, at the same env steps"
+_STEP_LABELS = ("blx's step: 16 x 3.125 ms", "8 x 6.25 ms")
 
 
 STUDIES = {
@@ -66,21 +100,31 @@ STUDIES = {
     "run_reward": Study("mimax", ("diayn",), "env_reward_multiplier", (0.0, 1.0),
                         ("eval/mi", "eval/entropy", "eval/episode_env_reward"),
                         "with the run reward, skills are gaits that all run"),
+    "step_diayn": Study("mimax", ("diayn",), "edits", ({}, CHEETAH_FAST_STEP),
+                        ("eval/mi", "eval/entropy", "eval/lgr"), _STEP_CLAIM,
+                        group="env_params", envs=("halfcheetah",), labels=_STEP_LABELS,
+                        paper=False),
+    "step_gail": Study("dmin", ("gail",), "edits", ({}, CHEETAH_FAST_STEP),
+                       ("eval/energy_distance",), _STEP_CLAIM,
+                       group="env_params", envs=("halfcheetah",), labels=_STEP_LABELS,
+                       paper=False),
 }
 
 
-LABELS = {"eval/mi": "MI(s, z)", "eval/entropy": "H(s)",
+LABELS = {"eval/mi": "MI(s, z)", "eval/entropy": "H(s)", "eval/lgr": "LGR (lower is better)",
           "eval/energy_distance": "energy distance (lower is better)",
           "eval/episode_env_reward": "episode env reward"}
 
 
 def spec(study: Study, env: str, seeds: int, steps: int | None = None) -> dict:
   """One sweep over the study's objectives x values, on the settings of the paper's row."""
+  if study.envs is not None and env not in study.envs:
+    raise ValueError(f"env {env!r}: this study is defined for {list(study.envs)}")
   base = paper_tables.specs(seeds, steps=steps, env=env)[study.family]
-  options = dict(base["options"])
-  options[study.option] = list(study.values)
+  varied = dict(base[study.group])
+  varied[study.option] = list(study.values)
   return dict(base, name=f"ablation_{study.option}_{env}", objective=list(study.objectives),
-              options=options)
+              **{study.group: varied})
 
 
 def curve(rows: list[dict], key: str) -> tuple[list[float], list[float], list[float]]:
@@ -129,11 +173,12 @@ def report(study_name: str, study: Study, directory: str, sweep_spec: dict) -> s
   matplotlib.use("Agg")
   import matplotlib.pyplot as plt
   from blx.experiments import sweep
-  arms, curves = {}, {}
-  for name, _ in sweep.expand(sweep_spec):
+  arms, curves, labels = {}, {}, {}
+  for name, run_spec in sweep.expand(sweep_spec):
     path = os.path.join(directory, name)
     if not os.path.exists(os.path.join(path, "eval.json")):
       continue
+    labels[name] = study.label(name, run_spec)
     with open(os.path.join(path, "eval.json")) as f:
       arms[name] = json.load(f)
     with open(os.path.join(path, "metrics.csv")) as f:
@@ -148,20 +193,21 @@ def report(study_name: str, study: Study, directory: str, sweep_spec: dict) -> s
       if not steps:
         continue
       x = [s / 1e6 for s in steps]
-      ax.plot(x, mean, label=name.replace("__", ", "))
+      ax.plot(x, mean, label=labels[name])
       ax.fill_between(x, [m - s for m, s in zip(mean, std)], [m + s for m, s in zip(mean, std)],
                       alpha=0.2)
     ax.set_xlabel("env steps per seed (millions)")
     ax.set_title(LABELS.get(key, key))
     ax.grid(alpha=0.3)
   axes[0][0].legend(fontsize=7)
-  fig.suptitle(f"{study_name}; the paper: {study.claim} (mean ± std over seeds)", fontsize=9)
+  title = f"{study_name}; {study.claim_line} (mean ± std over seeds)"
+  fig.suptitle(textwrap.fill(title, 80 * len(study.metrics)), fontsize=9)
   fig.tight_layout()
   fig.savefig(os.path.join(directory, "curves.png"), dpi=120)
   plt.close(fig)
   table = "\n".join(compare(arms, study.metrics))
   with open(os.path.join(directory, "ablation.md"), "w") as f:
-    f.write(f"# {study_name}\n\nThe paper: {study.claim}.\n\n{table}\n")
+    f.write(f"# {study_name}\n\n{study.claim_line[0].upper()}{study.claim_line[1:]}.\n\n{table}\n")
   return table
 
 
@@ -180,21 +226,28 @@ def main():
   args = parser.parse_args()
   if args.list or args.study is None:
     for name, s in STUDIES.items():
-      print(f"{name}: {', '.join(s.objectives)} x {s.option} in {list(s.values)} -- {s.claim}")
+      print(f"{name}: {', '.join(s.objectives)} x {s.option} in {json.dumps(list(s.values))} -- "
+            f"{s.claim_line}")
     return
   from blx.experiments import sweep
   study = STUDIES[args.study]
+  if study.envs is not None and args.env not in study.envs:
+    parser.error(f"--env {args.env}: {args.study} is defined for {list(study.envs)}")
   directory = os.path.join(args.out, f"{args.study}_{args.env}")
   sweep_spec = spec(study, args.env, args.seeds, args.steps)
   if not args.report:
     only = None
     if args.arm:
-      only = [json.loads(v) for v in args.arm]
+      try:
+        only = [json.loads(v) for v in args.arm]
+      except json.JSONDecodeError as e:
+        parser.error(f"--arm: not JSON ({e}); {args.study}'s values are "
+                     f"{json.dumps(list(study.values))}")
       bad = [v for v in only if v not in study.values]
       if bad:
-        parser.error(f"--arm {bad}: {args.study}'s values are {list(study.values)}")
+        parser.error(f"--arm {bad}: {args.study}'s values are {json.dumps(list(study.values))}")
     select = None if only is None else (
-        lambda name, run_spec: run_spec.objective_options[study.option] in only)
+        lambda name, run_spec: study.value(run_spec) in only)
     sweep.run_sweep(sweep_spec, directory, select=select, eval_metrics=True)
   print(report(args.study, study, directory, sweep_spec))
 

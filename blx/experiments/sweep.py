@@ -116,6 +116,11 @@ def expand(spec: dict) -> list[tuple[str, runs.RunSpec]]:
 
 
 def _fmt(v: Any) -> str:
+  """A grid value as part of a directory name. A mapping (e.g. env ``edits``) is written
+  ``key=value`` joined by ``,`` (``none`` when empty), without braces or quotes, so the name needs
+  no quoting in a shell."""
+  if isinstance(v, dict):
+    return ",".join(f"{k}={_fmt(x)}" for k, x in v.items()) or "none"
   return str(v).replace("/", "-").replace(" ", "")
 
 

@@ -2,46 +2,62 @@
 their comparison."""
 
 import csv
-import importlib.util
 import inspect
 import json
 import os
-import pathlib
-import sys
 
 import pytest
 
 from blx.experiments import sweep
 from blx.objectives import presets
+from tests.experiments import load_benchmark
 
-_PATH = pathlib.Path(__file__).resolve().parents[2] / "benchmarks" / "ablations.py"
-_spec = importlib.util.spec_from_file_location("ablations", _PATH)
-ablations = importlib.util.module_from_spec(_spec)
-sys.modules["ablations"] = ablations  # dataclasses look their module up
-_spec.loader.exec_module(ablations)
+ablations = load_benchmark("ablations")
 
 
 def _default(objective, option):
   return inspect.signature(presets._preset(objective)).parameters[option].default
 
 
-@pytest.mark.parametrize("name", sorted(ablations.STUDIES))
-@pytest.mark.parametrize("env", ["ant", "humanoid"])
+_STUDY_ENVS = [(name, env) for name, study in sorted(ablations.STUDIES.items())
+               for env in (study.envs or ("ant", "humanoid"))]
+
+
+@pytest.mark.parametrize("name,env", _STUDY_ENVS)
 def test_arms_differ_from_the_paper_row_in_the_studied_option_only(name, env):
   study = ablations.STUDIES[name]
   row = ablations.paper_tables.specs(10, env=env)[study.family]
   points = sweep.expand(ablations.spec(study, env, 10))
   assert len(points) == len(study.objectives) * len(study.values)
+  other = "env_params" if study.group == "options" else "options"
   for objective in study.objectives:
     arms = [s for _, s in points if s.objective == objective]
-    assert [s.objective_options[study.option] for s in arms] == list(study.values)
-    # The first arm is the paper's row: its value is the row's, or the objective's default.
-    assert study.values[0] == row["options"].get(study.option, _default(objective, study.option))
+    assert [study.value(s) for s in arms] == list(study.values)
+    # The first arm is the paper's row: its value is the row's, or the objective's (or env's)
+    # default.
+    default = ({} if study.group == "env_params" else _default(objective, study.option))
+    assert study.values[0] == row[study.group].get(study.option, default)
     for arm in arms:
-      rest = {k: v for k, v in arm.objective_options.items() if k != study.option}
-      assert rest == {k: v for k, v in row["options"].items() if k != study.option}
+      studied = arm.objective_options if study.group == "options" else arm.env_params
+      unstudied = arm.env_params if study.group == "options" else arm.objective_options
+      rest = {k: v for k, v in studied.items() if k != study.option}
+      assert rest == {k: v for k, v in row[study.group].items() if k != study.option}
+      assert unstudied == row[other]
       assert (arm.env, arm.seeds) == (env, tuple(range(10)))
       assert arm.ppo == {"num_timesteps": row["steps"]}
+
+
+def test_the_step_studies_keep_the_cheetahs_env_step_and_iterations():
+  from blx.envs import registry
+  fast = ablations.CHEETAH_FAST_STEP
+  base = registry.get_desc("halfcheetah")["global_options"]
+  edited = registry.get_desc("halfcheetah", edits=fast)["global_options"]
+  assert edited["timestep"] * edited["substeps"] == pytest.approx(
+      base["timestep"] * base["substeps"])  # the same 50 ms control step
+  assert (edited["substeps"], edited["iterations"]) == (8, base["iterations"])
+  assert base["substeps"] == 16
+  with pytest.raises(ValueError, match=r"defined for \['halfcheetah'\]"):
+    ablations.spec(ablations.STUDIES["step_diayn"], "ant", 2)
 
 
 def test_curve_is_the_mean_and_std_over_seeds_where_every_seed_was_evaluated():
@@ -89,3 +105,22 @@ def test_report_draws_and_tabulates_the_evaluated_arms(tmp_path):
   assert "spectral_norm=False | eval/mi | 0.600 ± 0.100 (2)" in table
   assert os.path.getsize(tmp_path / "curves.png") > 10_000
   assert table in (tmp_path / "ablation.md").read_text()
+
+
+def test_an_env_edit_axis_names_its_arms_without_braces_or_quotes():
+  spec = ablations.spec(ablations.STUDIES["step_gail"], "halfcheetah", 2, steps=1000)
+  names = [name for name, _ in sweep.expand(spec)]
+  assert names == ["edits=none",
+                   "edits=global_options.timestep=0.00625,global_options.substeps=8"]
+
+
+def test_legend_entries_are_the_studys_labels_where_given_and_the_point_names_otherwise():
+  step = ablations.STUDIES["step_gail"]
+  points = sweep.expand(ablations.spec(step, "halfcheetah", 2, steps=1000))
+  assert [step.label(n, s) for n, s in points] == ["blx's step: 16 x 3.125 ms", "8 x 6.25 ms"]
+  assert step.claim_line.startswith("tested (not a claim of the paper): ")
+  gp = ablations.STUDIES["gp"]
+  points = sweep.expand(ablations.spec(gp, "ant", 2, steps=1000))
+  assert [gp.label(n, s) for n, s in points][:2] == [
+      "objective=airl, gradient_penalty_weight=0.0", "objective=airl, gradient_penalty_weight=1.0"]
+  assert gp.claim_line.startswith("the paper: ")

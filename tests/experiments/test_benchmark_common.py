@@ -3,9 +3,6 @@
 (chunk_costs.py, host_loop.py), and the vmapped env step timed by env_throughput.py and
 cheetah_step.py."""
 
-import importlib.util
-import pathlib
-import sys
 
 import jax
 import jax.numpy as jnp
@@ -15,12 +12,9 @@ import pytest
 from blx import envs, training
 from blx.objectives import task
 from tests.conftest import make_env
+from tests.experiments import load_benchmark
 
-_DIR = pathlib.Path(__file__).resolve().parents[2] / "benchmarks"
-sys.path.insert(0, str(_DIR))
-_spec = importlib.util.spec_from_file_location("common", _DIR / "common.py")
-common = importlib.util.module_from_spec(_spec)
-_spec.loader.exec_module(common)
+common = load_benchmark("common")
 
 
 @pytest.mark.parametrize("num_envs", [2048, 16384, 65536])

@@ -1,18 +1,12 @@
 """benchmarks/cheetah_step.py: the divergence horizon, the behaviour signatures, the candidates it
 refuses, and its MJX and float64 rollouts of the same actions from the same (non-default) pose."""
 
-import importlib.util
-import pathlib
-import sys
 
 import numpy as np
 import pytest
+from tests.experiments import load_benchmark
 
-_PATH = pathlib.Path(__file__).resolve().parents[2] / "benchmarks" / "cheetah_step.py"
-_spec = importlib.util.spec_from_file_location("cheetah_step", _PATH)
-cheetah_step = importlib.util.module_from_spec(_spec)
-sys.modules["cheetah_step"] = cheetah_step
-_spec.loader.exec_module(cheetah_step)
+cheetah_step = load_benchmark("cheetah_step")
 
 DT = 0.05
 

@@ -1,10 +1,7 @@
 """benchmarks/fall_analysis.py: the split of an MI-max row's scored states into those before and
 after each episode's end, on a stand-in env whose skills are known points until a fall."""
 
-import importlib.util
 import json
-import pathlib
-import sys
 from types import SimpleNamespace
 
 import jax
@@ -13,12 +10,9 @@ import numpy as np
 import pytest
 
 from blx import envs, metrics, objectives, training
+from tests.experiments import load_benchmark
 
-_PATH = pathlib.Path(__file__).resolve().parents[2] / "benchmarks" / "fall_analysis.py"
-_spec = importlib.util.spec_from_file_location("fall_analysis", _PATH)
-fall_analysis = importlib.util.module_from_spec(_spec)
-sys.modules["fall_analysis"] = fall_analysis
-_spec.loader.exec_module(fall_analysis)
+fall_analysis = load_benchmark("fall_analysis")
 
 K = 4
 

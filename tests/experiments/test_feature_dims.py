@@ -1,9 +1,7 @@
 """benchmarks/feature_dims.py: MI and H(s) per observation dimension of a policy."""
 
-import importlib.util
 import math
 import pathlib
-import sys
 
 import jax
 import jax.numpy as jnp
@@ -11,12 +9,9 @@ import numpy as np
 
 from blx import objectives
 from tests.conftest import make_env
+from tests.experiments import load_benchmark
 
-_PATH = pathlib.Path(__file__).resolve().parents[2] / "benchmarks" / "feature_dims.py"
-_spec = importlib.util.spec_from_file_location("feature_dims", _PATH)
-feature_dims = importlib.util.module_from_spec(_spec)
-sys.modules["feature_dims"] = feature_dims
-_spec.loader.exec_module(feature_dims)
+feature_dims = load_benchmark("feature_dims")
 
 
 def _split_on_x(params, obs, z, key=None, deterministic=False):

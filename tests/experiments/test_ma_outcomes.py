@@ -1,14 +1,10 @@
 """benchmarks/ma_outcomes.py: what two agents did to each other, summarised from torso tracks."""
 
-import importlib.util
-import pathlib
 
 import numpy as np
+from tests.experiments import load_benchmark
 
-_PATH = pathlib.Path(__file__).resolve().parents[2] / "benchmarks" / "ma_outcomes.py"
-_spec = importlib.util.spec_from_file_location("ma_outcomes", _PATH)
-ma_outcomes = importlib.util.module_from_spec(_spec)
-_spec.loader.exec_module(ma_outcomes)
+ma_outcomes = load_benchmark("ma_outcomes")
 
 
 def test_summary_counts_catches_ring_outs_and_lengths_by_hand():

@@ -1,20 +1,16 @@
 """benchmarks/paper_tables.py: the paper's rows per env, the sweep specs that train them and the
 verdicts that compare blx with them."""
 
-import importlib.util
 import json
 import math
-import pathlib
 
 import pytest
 from scipy import stats
 
 from blx.experiments import sweep
+from tests.experiments import load_benchmark
 
-_PATH = pathlib.Path(__file__).resolve().parents[2] / "benchmarks" / "paper_tables.py"
-_spec = importlib.util.spec_from_file_location("paper_tables", _PATH)
-paper_tables = importlib.util.module_from_spec(_spec)
-_spec.loader.exec_module(paper_tables)
+paper_tables = load_benchmark("paper_tables")
 
 
 @pytest.mark.parametrize("env,steps", [("ant", 60_000_000), ("halfcheetah", 200_000_000),

@@ -1,17 +1,13 @@
 """benchmarks/peer.py: the stand-in for jax.device_put_replicated that lets brax's PPO run on a jax
 without it (jax 0.10+)."""
 
-import importlib.util
-import pathlib
 
 import jax
 import jax.numpy as jnp
 import numpy as np
+from tests.experiments import load_benchmark
 
-_PATH = pathlib.Path(__file__).resolve().parents[2] / "benchmarks" / "peer.py"
-_spec = importlib.util.spec_from_file_location("peer", _PATH)
-peer = importlib.util.module_from_spec(_spec)
-_spec.loader.exec_module(peer)
+peer = load_benchmark("peer")
 
 
 def test_replicated_stacks_every_leaf_once_per_device_on_a_leading_axis():

@@ -1,14 +1,8 @@
 """benchmarks/time_to_quality.py: which seeds an arm trains; a plot that names each arm's recipe."""
 
-import importlib.util
-import pathlib
-import sys
+from tests.experiments import load_benchmark
 
-_DIR = pathlib.Path(__file__).resolve().parents[2] / "benchmarks"
-sys.path.insert(0, str(_DIR))  # the script imports paper_tables beside it
-_spec = importlib.util.spec_from_file_location("time_to_quality", _DIR / "time_to_quality.py")
-ttq = importlib.util.module_from_spec(_spec)
-_spec.loader.exec_module(ttq)
+ttq = load_benchmark("time_to_quality")  # it imports paper_tables from beside it
 
 
 def test_an_arm_trains_the_seeds_from_first_seed_with_the_papers_objective_settings():
