@@ -205,7 +205,7 @@ def report(study_name: str, study: Study, directory: str, sweep_spec: dict) -> s
   fig.tight_layout()
   fig.savefig(os.path.join(directory, "curves.png"), dpi=120)
   plt.close(fig)
-  table = "\n".join(compare(arms, study.metrics))
+  table = "\n".join(compare({labels[name]: arm for name, arm in arms.items()}, study.metrics))
   with open(os.path.join(directory, "ablation.md"), "w") as f:
     f.write(f"# {study_name}\n\n{study.claim_line[0].upper()}{study.claim_line[1:]}.\n\n{table}\n")
   return table
