@@ -75,10 +75,14 @@ class Study:
   def claim_line(self) -> str:
     return f"{'the paper' if self.paper else 'tested (not a claim of the paper)'}: {self.claim}"
 
+  def settings(self, run_spec) -> dict:
+    """The dict of one arm's ``runs.RunSpec`` that the studied setting lives in."""
+    return run_spec.objective_options if self.group == "options" else run_spec.env_params
+
   def value(self, run_spec) -> object:
-    """The studied setting's value in one arm's ``runs.RunSpec``."""
-    return (run_spec.objective_options if self.group == "options"
-            else run_spec.env_params).get(self.option, self.values[0])
+    """The studied setting's value in one arm's ``runs.RunSpec`` (the row's, ``values[0]``,
+    where the arm leaves it at its default)."""
+    return self.settings(run_spec).get(self.option, self.values[0])
 
 
 # The half-cheetah's cheaper step (``benchmarks/cheetah_step.py``, session 18): 8 substeps of
@@ -231,10 +235,11 @@ def main():
     return
   from blx.experiments import sweep
   study = STUDIES[args.study]
-  if study.envs is not None and args.env not in study.envs:
-    parser.error(f"--env {args.env}: {args.study} is defined for {list(study.envs)}")
   directory = os.path.join(args.out, f"{args.study}_{args.env}")
-  sweep_spec = spec(study, args.env, args.seeds, args.steps)
+  try:
+    sweep_spec = spec(study, args.env, args.seeds, args.steps)
+  except ValueError as e:  # an env the study is not defined for
+    parser.error(f"{args.study} --env {args.env}: {e}")
   if not args.report:
     only = None
     if args.arm:

@@ -30,6 +30,7 @@ def test_arms_differ_from_the_paper_row_in_the_studied_option_only(name, env):
   points = sweep.expand(ablations.spec(study, env, 10))
   assert len(points) == len(study.objectives) * len(study.values)
   other = "env_params" if study.group == "options" else "options"
+  other_field = "env_params" if study.group == "options" else "objective_options"
   for objective in study.objectives:
     arms = [s for _, s in points if s.objective == objective]
     assert [study.value(s) for s in arms] == list(study.values)
@@ -38,11 +39,9 @@ def test_arms_differ_from_the_paper_row_in_the_studied_option_only(name, env):
     default = ({} if study.group == "env_params" else _default(objective, study.option))
     assert study.values[0] == row[study.group].get(study.option, default)
     for arm in arms:
-      studied = arm.objective_options if study.group == "options" else arm.env_params
-      unstudied = arm.env_params if study.group == "options" else arm.objective_options
-      rest = {k: v for k, v in studied.items() if k != study.option}
+      rest = {k: v for k, v in study.settings(arm).items() if k != study.option}
       assert rest == {k: v for k, v in row[study.group].items() if k != study.option}
-      assert unstudied == row[other]
+      assert getattr(arm, other_field) == row[other]
       assert (arm.env, arm.seeds) == (env, tuple(range(10)))
       assert arm.ppo == {"num_timesteps": row["steps"]}
 
