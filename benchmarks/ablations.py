@@ -33,17 +33,14 @@ from __future__ import annotations
 import argparse
 import csv
 import dataclasses
-import importlib.util
 import json
 import math
 import os
+import sys
 import textwrap
 
-_HERE = os.path.dirname(os.path.abspath(__file__))
-_spec = importlib.util.spec_from_file_location("paper_tables",
-                                               os.path.join(_HERE, "paper_tables.py"))
-paper_tables = importlib.util.module_from_spec(_spec)
-_spec.loader.exec_module(paper_tables)
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import paper_tables  # noqa: E402
 
 
 @dataclasses.dataclass(frozen=True)

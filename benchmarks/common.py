@@ -1,5 +1,5 @@
-"""What the benchmark scripts share: raw ``mjx.step`` on an env's model, timing a jitted call, and
-their Markdown tables."""
+"""What the benchmark scripts share: raw ``mjx.step`` on an env's model, timing a jitted call,
+their Markdown tables, and how the analyses of a finished run pick its seeds and name it."""
 
 from __future__ import annotations
 
@@ -81,3 +81,25 @@ def one_iteration_per_chunk(config: PPOConfig, chunks: int = 100) -> PPOConfig:
   back to back (``num_timesteps`` stays within PPOConfig's 2**31 - 1 up to 16 M env steps per
   iteration)."""
   return config.replace(num_timesteps=config.env_steps_per_iteration * chunks, num_evals=chunks)
+
+
+def seed_positions(text: str | None, num_seeds: int, flag: str = "--seeds") -> list[int]:
+  """The positions in a run's ``num_seeds`` seeds that the option ``flag`` names (``"0,2"``;
+  every one where ``text`` is None). ``ValueError`` naming what is wrong and what is valid."""
+  try:
+    picked = list(range(num_seeds)) if text is None else [int(s) for s in text.split(",")]
+  except ValueError:
+    raise ValueError(f"{flag} {text!r}: give comma-separated positions, e.g. 0,1") from None
+  bad = [p for p in picked if not 0 <= p < num_seeds]
+  if bad:
+    raise ValueError(f"{flag} {','.join(map(str, bad))}: the run has {num_seeds} seeds, "
+                     f"positions 0..{num_seeds - 1}")
+  return picked
+
+
+def run_label(spec, seeds: str | None = None) -> str:
+  """"OBJECTIVE on ENV, N seeds" for a run's ``RunSpec``, with the env's edits where it has any
+  (an ablation); ``seeds`` replaces "N seeds" (e.g. "seed 3")."""
+  edits = (spec.env_params or {}).get("edits")
+  where = f"{spec.env} ({', '.join(f'{k} {v}' for k, v in edits.items())})" if edits else spec.env
+  return f"{spec.objective} on {where}, {seeds or f'{len(spec.seeds)} seeds'}"

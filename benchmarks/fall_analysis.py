@@ -85,6 +85,7 @@ import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import ablations  # noqa: E402
+import common  # noqa: E402
 
 from blx import envs, metrics  # noqa: E402
 from blx.experiments import runs  # noqa: E402
@@ -268,15 +269,8 @@ def plot(directory: str) -> str:
     ax.set_title(f"each seed at the end ({actions} actions, 10 episodes per skill)", fontsize=9)
     ax.legend(fontsize=7)
     ax.grid(alpha=0.3)
-  return _save(fig, plt, directory, f"{_run_label(spec)}: how much of the MI the falls take "
+  return _save(fig, plt, directory, f"{common.run_label(spec)}: how much of the MI the falls take "
                "(mean ± std over seeds)")
-
-
-def _run_label(spec: runs.RunSpec) -> str:
-  """"OBJECTIVE on ENV, N seeds", with the env's edits where the run has any (an ablation)."""
-  edits = (spec.env_params or {}).get("edits")
-  where = f"{spec.env} ({', '.join(f'{k} {v}' for k, v in edits.items())})" if edits else spec.env
-  return f"{spec.objective} on {where}, {len(spec.seeds)} seeds"
 
 
 def _save(fig, plt, directory: str, title: str) -> str:
@@ -346,7 +340,7 @@ def _plot_dmin(directory, spec, rows, analysis, plt) -> str:
     ax.set_title(f"each seed at the end ({actions} actions, 10 episodes)", fontsize=9)
     ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.02, 1.0))  # off the points
     ax.grid(alpha=0.3)
-  return _save(fig, plt, directory, f"{_run_label(spec)}: the energy distance and the falls "
+  return _save(fig, plt, directory, f"{common.run_label(spec)}: the energy distance and the falls "
                "(mean ± std over seeds)")
 
 
@@ -374,12 +368,9 @@ def main(argv=None) -> int:
                  "this analysis reads MI or the energy distance")
   n = len(run.spec.seeds)
   try:
-    picked = list(range(n)) if args.seeds is None else [int(s) for s in args.seeds.split(",")]
-  except ValueError:
-    parser.error(f"--seeds {args.seeds!r}: give comma-separated positions, e.g. 0,1")
-  bad = [p for p in picked if not 0 <= p < n]
-  if bad:
-    parser.error(f"--seeds {bad}: the run has {n} seeds, positions 0..{n - 1}")
+    picked = common.seed_positions(args.seeds, n)
+  except ValueError as e:
+    parser.error(str(e))
   if args.noise_scale is not None and (args.deterministic or args.noise_scale < 0):
     parser.error("--noise-scale takes a number >= 0 and not --deterministic (which is scale 0)")
   if args.draws < 1:

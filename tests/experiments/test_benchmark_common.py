@@ -1,7 +1,7 @@
 """benchmarks/common.py: the one-iteration-per-chunk config that the timing benchmarks
 (train_throughput.py, profile_ppo.py) run a jitted chunk with, the timing of a jitted call
-(chunk_costs.py, host_loop.py), and the vmapped env step timed by env_throughput.py and
-cheetah_step.py."""
+(chunk_costs.py, host_loop.py), the vmapped env step timed by env_throughput.py and
+cheetah_step.py, and how fall_analysis.py and skill_spread.py pick a run's seeds and name it."""
 
 
 import jax
@@ -56,3 +56,24 @@ def test_env_step_runner_sums_the_rewards_of_the_env_steps_it_runs():
     s = jax.vmap(env.step)(s, a)
     total += float(s.reward.sum())
   np.testing.assert_allclose(float(run(state, actions)), total, rtol=1e-5)
+
+
+def test_seed_positions_name_the_bad_ones_and_the_valid_range():
+  assert common.seed_positions(None, 3) == [0, 1, 2]
+  assert common.seed_positions("2,0", 3) == [2, 0]
+  with pytest.raises(ValueError, match=r"--seeds 3,-1: the run has 3 seeds, positions 0\.\.2"):
+    common.seed_positions("0,3,-1", 3)
+  with pytest.raises(ValueError, match=r"--seed 'a': give comma-separated positions"):
+    common.seed_positions("a", 3, "--seed")
+
+
+def test_run_labels_name_the_env_edits_of_an_ablation_run():
+  from blx.experiments import runs
+  plain = runs.RunSpec(env="humanoid", objective="airl", objective_options={}, ppo={},
+                       seeds=(0, 1))
+  edited = runs.RunSpec(env="humanoid", objective="airl", objective_options={}, ppo={},
+                        seeds=(0, 1), env_params={"edits": {"global_options.reset_actions": 0.5}})
+  assert common.run_label(plain) == "airl on humanoid, 2 seeds"
+  assert (common.run_label(edited)
+          == "airl on humanoid (global_options.reset_actions 0.5), 2 seeds")
+  assert common.run_label(plain, "seed 1") == "airl on humanoid, seed 1"

@@ -153,14 +153,3 @@ def test_a_dmin_row_is_split_at_the_falls_and_scored_against_its_target():
   np.testing.assert_allclose(out[f"logit_mode/{1 - positive}"], of(t[t[:, 0] < 0]), rtol=1e-5)
   np.testing.assert_allclose(out["logit_upright"], of(np.arange(1.0, 7.0)[:, None]), rtol=1e-5)
   assert abs(out[f"logit_mode/{positive}"] - out[f"logit_mode/{1 - positive}"]) > 1e-3
-
-
-def test_plot_titles_name_the_env_edits_of_an_ablation_run():
-  from blx.experiments import runs
-  plain = runs.RunSpec(env="humanoid", objective="airl", objective_options={}, ppo={},
-                       seeds=(0, 1))
-  edited = runs.RunSpec(env="humanoid", objective="airl", objective_options={}, ppo={},
-                        seeds=(0, 1), env_params={"edits": {"global_options.reset_actions": 0.5}})
-  assert fall_analysis._run_label(plain) == "airl on humanoid, 2 seeds"
-  assert (fall_analysis._run_label(edited)
-          == "airl on humanoid (global_options.reset_actions 0.5), 2 seeds")
