@@ -32,9 +32,9 @@ each, the last 500 steps scored, actions sampled unless ``--deterministic``):
 Prints the mean +- std over seeds and ln K; writes every per-seed value to ``--out`` (default
 RUN_DIR/skill_spread.json or skill_spread_deterministic.json).
 
-``--plot`` draws RUN_DIR/skill_spread.png for ``--seed`` (a position in the run's seeds): each skill's
-histogram of the scored feature (its first dimension), 100 steps of one episode of each skill, and,
-from skill_spread.json, every seed's variance shares. Its episodes are new random ones.
+``--plot`` draws RUN_DIR/skill_spread.png for ``--seed`` (a position in the run's seeds): each
+skill's histogram of the scored feature (its first dimension), 100 steps of one episode of each
+skill, and, from skill_spread.json, every seed's variance shares. Its episodes are new random ones.
 """
 
 from __future__ import annotations
