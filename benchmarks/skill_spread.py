@@ -8,8 +8,9 @@ episode, between the episodes of a skill, and between skills.
 The paper's MI estimator (Algorithm 1) bins every scored state of every episode of a skill together.
 MI = H(s) - H(s|z) is at most ln K for K skills, reached when no two skills' states share a bin.
 A skill whose body moves at a steady mean speed but whose speed swings within each stride spreads
-over many bins, so H(s|z) grows and MI falls, however distinct the skills' mean speeds are. This
-script measures which it is.
+over many bins. Where the swing reaches a neighbouring skill's speeds, the two share bins: H(s|z)
+grows and MI falls though their mean speeds differ. Skills that settle at one speed share their
+bins too. This script measures which of the two costs the MI.
 
 Per seed and observed dimension d, on the protocol's episodes (every skill's one-hot, 10 episodes
 each, the last 500 steps scored, actions sampled unless ``--deterministic``):
@@ -23,7 +24,8 @@ each, the last 500 steps scored, actions sampled unless ``--deterministic``):
   total. They sum to 1;
 - ``stride_std``: the root mean within-episode variance, in the feature's units;
 - ``skill_gap``: the median gap between neighbouring skill means (sorted), in the same units;
-  ``gap_over_stride`` is the ratio. Below about 2, neighbouring skills share most of their bins;
+  ``gap_over_stride`` is the ratio. Below about 2, neighbouring skills' states overlap (two
+  normal distributions 2 std apart share about a third of their mass);
 - ``skill_means``: every skill's mean, sorted (a list per seed);
 - ``mi_smoothed``: a diagnostic, never the protocol. The same estimator on the feature averaged over
   the ``--window`` steps up to each state (default 20), which removes most of a stride's swing.
@@ -150,7 +152,7 @@ def plot(run: runs.Run, position: int, *, deterministic: bool) -> str:
             label=f"skill {s}: mean {scored[s].mean():+.2f}")
   ax.set_xlabel(f"{name}, the scored feature")
   ax.set_ylabel("scored states")
-  ax.set_title(f"each skill's scored states (10 episodes x {last} steps)", fontsize=9)
+  ax.set_title(f"each skill's scored states ({EPISODES} episodes x {last} steps)", fontsize=9)
   ax.legend(fontsize=7, ncol=2)
   ax = axes[1]
   dt = getattr(run.env, "dt", None)
