@@ -1,8 +1,11 @@
 """What the benchmark scripts share: raw ``mjx.step`` on an env's model, timing a jitted call,
-their Markdown tables, and how the analyses of a finished run pick its seeds and name it."""
+their Markdown tables, and what the analyses of a finished run share: their common options, how
+they pick its seeds and name it, and how they write their JSON."""
 
 from __future__ import annotations
 
+import json
+import os
 import time
 from typing import Callable, Sequence
 
@@ -81,6 +84,31 @@ def one_iteration_per_chunk(config: PPOConfig, chunks: int = 100) -> PPOConfig:
   back to back (``num_timesteps`` stays within PPOConfig's 2**31 - 1 up to 16 M env steps per
   iteration)."""
   return config.replace(num_timesteps=config.env_steps_per_iteration * chunks, num_evals=chunks)
+
+
+def add_analysis_arguments(parser, run_help: str) -> None:
+  """The options every analysis of a finished run takes: the run directory (``run_help`` says
+  which runs it reads), ``--seeds``, ``--deterministic`` and ``--out``."""
+  parser.add_argument("run", help=run_help)
+  parser.add_argument("--seeds", default=None,
+                      help="comma-separated positions in the run's seeds (default all)")
+  parser.add_argument("--deterministic", action="store_true", help="take the mean actions")
+  parser.add_argument("--out", default=None,
+                      help="the JSON file to write (default: one in the run directory)")
+
+
+def write_json(path: str, value) -> None:
+  """Writes ``value`` to ``path`` as indented JSON through a temporary file: a write that fails or
+  is killed leaves the last whole file, never half of one."""
+  tmp = path + ".tmp"
+  try:
+    with open(tmp, "w") as f:
+      json.dump(value, f, indent=2)
+  except BaseException:
+    if os.path.exists(tmp):
+      os.remove(tmp)
+    raise
+  os.replace(tmp, path)
 
 
 def seed_positions(text: str | None, num_seeds: int, flag: str = "--seeds") -> list[int]:

@@ -346,15 +346,11 @@ def _plot_dmin(directory, spec, rows, analysis, plt) -> str:
 
 def main(argv=None) -> int:
   parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-  parser.add_argument("run", help="a finished MI-max or D-min run directory (config.json and "
-                      "checkpoint)")
-  parser.add_argument("--seeds", default=None,
-                      help="comma-separated positions in the run's seeds (default all)")
-  parser.add_argument("--deterministic", action="store_true", help="take the mean actions")
+  common.add_analysis_arguments(parser, "a finished MI-max or D-min run directory (config.json "
+                                "and checkpoint)")
   parser.add_argument("--noise-scale", type=float, default=None,
                       help="sample at this multiple of the policy's std (a diagnostic)")
   parser.add_argument("--draws", type=int, default=5, help="random subsets for the control")
-  parser.add_argument("--out", default=None)
   parser.add_argument("--plot", action="store_true",
                       help="only draw falls.png from metrics.csv and fall_analysis.json")
   args = parser.parse_args(argv)
@@ -401,9 +397,7 @@ def main(argv=None) -> int:
   name = ("fall_analysis_deterministic.json" if args.deterministic else "fall_analysis.json"
           if args.noise_scale is None else f"fall_analysis_noise_{args.noise_scale:g}.json")
   out = args.out or os.path.join(args.run, name)
-  with open(out + ".tmp", "w") as f:  # a killed run leaves the last whole file, never half of one
-    json.dump(result, f, indent=2)
-  os.replace(out + ".tmp", out)
+  common.write_json(out, result)
   actions = ("mean" if args.deterministic else "sampled" if args.noise_scale is None
              else f"{args.noise_scale:g} x std sampled")
   print(f"{run.spec.objective} on {run.spec.env}, seeds {result['seeds']}, {actions} actions")

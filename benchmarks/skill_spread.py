@@ -132,10 +132,7 @@ def plot(run: runs.Run, position: int, *, deterministic: bool) -> str:
   last = metrics.scored_steps(run.env)
   scored = states[:, :, -last:]
   k = scored.shape[0]
-  labels = np.repeat(np.arange(k), scored[0].size)
-  mi = float(metrics.mutual_information(jnp.asarray(scored.reshape(-1, 1)), jnp.asarray(labels),
-                                        bins=BINS, value_range=(-scale, scale),
-                                        num_labels=k)["mi"][0])
+  mi = float(spread(jnp.asarray(states[..., None]), scale, last, 1)["mi"][0])
   order = np.argsort(scored.mean((1, 2)))
   colors = plots.skill_colours(k)
   analysis_path = os.path.join(run.directory, "skill_spread.json")
@@ -193,14 +190,10 @@ def plot(run: runs.Run, position: int, *, deterministic: bool) -> str:
 
 def main(argv=None) -> int:
   parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-  parser.add_argument("run", help="an MI-max run directory with discrete skills (config.json and "
-                      "checkpoint)")
-  parser.add_argument("--seeds", default=None,
-                      help="comma-separated positions in the run's seeds (default all)")
-  parser.add_argument("--deterministic", action="store_true", help="take the mean actions")
+  common.add_analysis_arguments(parser, "an MI-max run directory with discrete skills "
+                                "(config.json and checkpoint)")
   parser.add_argument("--window", type=int, default=None,
                       help="steps averaged for mi_smoothed (a diagnostic; default 20)")
-  parser.add_argument("--out", default=None)
   parser.add_argument("--plot", action="store_true",
                       help="only draw skill_spread.png for --seed")
   parser.add_argument("--seed", type=int, default=None,
@@ -245,9 +238,7 @@ def main(argv=None) -> int:
             "ln_num_skills": math.log(k), "per_seed": values}
   name = "skill_spread_deterministic.json" if args.deterministic else "skill_spread.json"
   out = args.out or os.path.join(args.run, name)
-  with open(out + ".tmp", "w") as f:  # a killed run leaves the last whole file, never half of one
-    json.dump(result, f, indent=2)
-  os.replace(out + ".tmp", out)
+  common.write_json(out, result)
   actions = "mean" if args.deterministic else "sampled"
   print(f"{run.spec.objective} on {run.spec.env}, seeds {result['seeds']}, {actions} actions, "
         f"ln K = {math.log(k):.3f}")

@@ -77,3 +77,26 @@ def test_run_labels_name_the_env_edits_of_an_ablation_run():
   assert (common.run_label(edited)
           == "airl on humanoid (global_options.reset_actions 0.5), 2 seeds")
   assert common.run_label(plain, "seed 1") == "airl on humanoid, seed 1"
+
+
+def test_a_json_write_that_fails_halfway_leaves_the_last_whole_file(tmp_path):
+  import json
+  path = str(tmp_path / "analysis.json")
+  common.write_json(path, {"mi": [1.0]})
+  # json.dump writes "mi" and its list before it reaches the set it cannot encode.
+  with pytest.raises(TypeError):
+    common.write_json(path, {"mi": [2.0], "bad": {1, 2}})
+  with open(path) as f:
+    assert json.load(f) == {"mi": [1.0]}
+  assert sorted(p.name for p in tmp_path.iterdir()) == ["analysis.json"]
+
+
+def test_the_analyses_share_their_run_options():
+  import argparse
+  parser = argparse.ArgumentParser()
+  common.add_analysis_arguments(parser, "a run")
+  args = parser.parse_args(["runs/x", "--seeds", "0,2", "--deterministic", "--out", "a.json"])
+  assert (args.run, args.seeds, args.deterministic, args.out) == ("runs/x", "0,2", True,
+                                                                   "a.json")
+  args = parser.parse_args(["runs/x"])
+  assert (args.seeds, args.deterministic, args.out) == (None, False, None)
