@@ -2,10 +2,12 @@
 engineering figures (DIAYN on xy velocity against DIAYN_FULL on the whole observation, Ant, the
 first 30 dimensions), #15.
 
-    python benchmarks/feature_dims.py RUN_DIR [RUN_DIR ...] [--dims 30] [--out feature_dims.png]
+    python benchmarks/feature_dims.py RUN_DIR [RUN_DIR ...] [--dims 30] [--seeds 0,1,2]
+                                      [--out feature_dims.png]
 
 Each run's policy is rolled out as the paper's MI evaluation does (every skill, 10 episodes each,
-sampled actions, the last 500 steps), for every seed of the run; each dimension's particle MI and
+sampled actions, the last 500 steps), for every seed of the run (or the positions ``--seeds`` names
+in each run's seeds); each dimension's particle MI and
 H(s) (Algorithm 1, 1000 bins over +-obs_scale of the run's objective) are averaged over seeds. One
 figure with two panels (MI per dimension, H(s) per dimension), one bar per run and dimension, and
 a JSON beside it with the numbers.
@@ -16,11 +18,15 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import sys
 from typing import Any, Callable
 
 import jax
 import jax.numpy as jnp
 import numpy as np
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import common  # noqa: E402
 
 
 def scan(env: Any, objective: Any, policy: Callable, params: Any, dims, key: jax.Array, *,
@@ -42,62 +48,86 @@ def scan(env: Any, objective: Any, policy: Callable, params: Any, dims, key: jax
   return {"mi": out["mi"], "entropy": out["entropy"]}
 
 
-def scan_run(directory: str, dims, seed: int = 0) -> dict:
-  """Per-dimension MI and H(s) of every seed of the run in ``directory``:
-  ``{"mi": [S, D], "entropy": [S, D]}``."""
+def scan_run(directory: str, dims, seed: int = 0, positions: list[int] | None = None) -> dict:
+  """Per-dimension MI and H(s) of the seeds at ``positions`` (default every one) of the run in
+  ``directory``: ``{"mi": [S, D], "entropy": [S, D]}``."""
   from blx.experiments import runs
   run = runs.load_run(directory)
   fn = jax.jit(lambda p, k: scan(run.env, run.objective, run.policy, p, dims, k))
+  if positions is None:
+    positions = range(len(run.spec.seeds))
   per_seed = [fn(jax.tree.map(lambda x: x[i], run.params), jax.random.PRNGKey(seed))
-              for i in range(len(run.spec.seeds))]
+              for i in positions]
   return {key: np.stack([np.asarray(s[key]) for s in per_seed]) for key in ("mi", "entropy")}
 
 
-def plot(results: dict[str, dict], dims, path: str) -> None:
-  """Two panels of bars: mean over seeds (error bar: std) per dimension, one colour per run."""
+def plot(results: dict[str, dict], dims, path: str, *, labels: list[str] | None = None,
+         title: str = "") -> None:
+  """Two panels of bars: mean over seeds (error bar: std) per dimension, one colour per run;
+  ``labels`` name the dimensions on the x axis (default their indices)."""
   import matplotlib
   matplotlib.use("Agg")
   import matplotlib.pyplot as plt
   dims = list(dims)
-  fig, axes = plt.subplots(2, 1, figsize=(max(8, 0.4 * len(dims) * len(results)), 6), sharex=True)
+  fig, axes = plt.subplots(2, 1, figsize=(max(8, 0.4 * len(dims) * len(results)),
+                                          6 if labels is None else 8), sharex=True)
   width = 0.8 / len(results)
   x = np.arange(len(dims))
-  for ax, key, title in zip(axes, ("mi", "entropy"), ("MI(s_d, z)", "H(s_d)")):
-    for j, (name, r) in enumerate(results.items()):
+  for ax, key, name in zip(axes, ("mi", "entropy"), ("MI(s_d, z) (nats)", "H(s_d) (nats)")):
+    for j, (run, r) in enumerate(results.items()):
       ax.bar(x + (j - (len(results) - 1) / 2) * width, r[key].mean(0), width,
-             yerr=r[key].std(0) if r[key].shape[0] > 1 else None, label=name, capsize=1.5)
-    ax.set_ylabel(title)
+             yerr=r[key].std(0) if r[key].shape[0] > 1 else None, label=run, capsize=1.5)
+    ax.set_ylabel(name)
     ax.grid(axis="y", alpha=0.3)
   axes[0].legend(fontsize=8)
-  axes[1].set_xticks(x, [str(d) for d in dims], fontsize=7)
+  if labels is None:
+    axes[1].set_xticks(x, [str(d) for d in dims], fontsize=7)
+  else:
+    axes[1].set_xticks(x, labels, fontsize=7, rotation=90)
   axes[1].set_xlabel("observation dimension")
-  axes[0].set_title("per observation dimension (mean ± std over seeds)", fontsize=9)
+  axes[0].set_title((f"{title}: " if title else "")
+                    + "MI and H(s) per observation dimension (mean ± std over seeds)", fontsize=9)
   fig.tight_layout()
   fig.savefig(path, dpi=120)
   plt.close(fig)
 
 
-def main():
+def main(argv: list[str] | None = None):
   parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
   parser.add_argument("runs", nargs="+", help="run directories (blx train / sweep points)")
   parser.add_argument("--dims", type=int, default=30, help="the first N observation dimensions")
+  parser.add_argument("--seeds", default=None,
+                      help="comma-separated positions in each run's seeds (default all)")
   parser.add_argument("--out", default="feature_dims.png")
-  args = parser.parse_args()
+  args = parser.parse_args(argv)
   from blx import envs
   from blx.experiments import runs
-  env, _, _ = runs.build(runs.read_spec(args.runs[0]))
+  specs = {directory: runs.read_spec(directory) for directory in args.runs}
+  picked = {}
+  for directory, spec in specs.items():
+    try:
+      picked[directory] = common.seed_positions(args.seeds, len(spec.seeds))
+    except ValueError as e:
+      parser.error(f"{directory}: {e}")
+  env, _, _ = runs.build(specs[args.runs[0]])
   size = envs.unwrap(env).observation_size
   if not 1 <= args.dims <= size:
     parser.error(f"--dims {args.dims}: the observation has {size} dimensions")
   dims = list(range(args.dims))
-  results = {}
-  for directory in args.runs:
+  results, seeds = {}, {}
+  for directory, spec in specs.items():
     name = os.path.basename(os.path.normpath(directory))
-    label = f"{runs.read_spec(directory).objective} ({name})"
-    results[label] = scan_run(directory, dims)
-  plot(results, dims, args.out)
-  with open(os.path.splitext(args.out)[0] + ".json", "w") as f:
-    json.dump({k: {m: v.tolist() for m, v in r.items()} for k, r in results.items()}, f)
+    label = (spec.objective if name in (spec.objective, f"objective={spec.objective}")
+             else f"{spec.objective} ({name})")
+    results[label] = scan_run(directory, dims, positions=picked[directory])
+    seeds[label] = [spec.seeds[i] for i in picked[directory]]
+  from blx.experiments import plots
+  counts = sorted({len(s) for s in seeds.values()})
+  plot(results, dims, args.out, labels=plots.feature_labels(env, dims),
+       title=f"{specs[args.runs[0]].env}, {'/'.join(map(str, counts))} seeds")
+  common.write_json(os.path.splitext(args.out)[0] + ".json",
+                    {k: {**{m: v.tolist() for m, v in r.items()}, "seeds": seeds[k]}
+                     for k, r in results.items()})
   for label, r in results.items():
     mi = r["mi"].mean(0)
     top = np.argsort(-mi)[:5]

@@ -244,7 +244,7 @@ class Env:
         ang_dofs.append(int(m.jnt_dofadr[j]))
         hinges.append(int(m.jnt_qposadr[j]))
     root_joints = {f"{comp}/{j}" for j in spec.root_joints}
-    qpos, qvel = [], []
+    qpos, qvel, names = [], [], []
     for j in range(m.njnt):
       jname = mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_JOINT, j)
       if jname.startswith(f"{comp}/") and jname not in root_joints:
@@ -254,6 +254,7 @@ class Env:
                            "root may have a free joint")
         qpos.append(int(m.jnt_qposadr[j]))
         qvel.append(int(m.jnt_dofadr[j]))
+        names.append(jname)
     actions = [i for i in range(m.nu)
                if mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_ACTUATOR, i).startswith(f"{comp}/")]
     # With planar root joints at their zero, the body pose is its pose at qpos0.
@@ -261,7 +262,7 @@ class Env:
                   free, rest.xpos[body].astype(np.float32).copy(),
                   rest.xquat[body].astype(np.float32).copy(), tuple(slides), tuple(hinges),
                   np.asarray(qpos, np.int32), np.asarray(qvel, np.int32),
-                  np.asarray(actions, np.int32), tuple(spec.planar_axes))
+                  np.asarray(actions, np.int32), tuple(spec.planar_axes), tuple(names))
 
   def _named_index_sets(self) -> dict[str, tuple[int, ...]]:
     """Every named set ``[<component>/]{pos,vel}_{x,y,z,xy,xyz}`` the observation can serve."""
@@ -292,6 +293,12 @@ class Env:
           return tuple(start + piece.source[2].index(a) for a in wanted)
       start += piece.size
     return None
+
+  @property
+  def joint_names(self) -> dict[str, tuple[str, ...]]:
+    """``{component: the MJCF names of its non-root joints}``, in the order of its
+    ``joint_pos``/``joint_vel`` observations (``{"agent1": ("agent1/hip_1", ...)}``)."""
+    return {name: handle.joint_names for name, handle in self._handles.items()}
 
   @property
   def agent_names(self) -> tuple[str, ...]:

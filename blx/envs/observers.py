@@ -60,6 +60,7 @@ class Handle:
   joint_qvel: np.ndarray         # qvel addresses of non-root joints
   actions: np.ndarray            # indices of this component's motors in the action vector
   planar_axes: tuple[int, ...]
+  joint_names: tuple[str, ...]   # the non-root joints' MJCF names, aligned with joint_qpos
 
 
 def _scatter3(values: jnp.ndarray, axes: Sequence[int]) -> jnp.ndarray:

@@ -252,16 +252,22 @@ _QUANTITIES = {"root_vel": "velocity", "root_pos": "position", "root_ang": "angu
 
 def feature_labels(env, indices) -> list[str]:
   """Readable names of observation indices from the env's layout: ``agent1 velocity x (obs 13)``
-  for the root's position, velocity and angular velocity, else ``agent1/joint_pos[2] (obs 7)``."""
+  for the root's position, velocity and angular velocity, ``agent1/hip_2 (obs 7)`` and
+  ``agent1/hip_2 velocity (obs 21)`` for a joint's angle and velocity, else
+  ``agent1/root_quat[0] (obs 1)``."""
+  joints = getattr(envs.unwrap(env), "joint_names", {})
   names = {}
   for name, sl in env.obs_layout.items():
     owner, _, piece = name.rpartition("/")
     base, _, suffix = piece.partition("[")
     axes = ([int(a) for a in suffix.rstrip("]").split(",")] if suffix
             else list(range(sl.stop - sl.start)))
+    joint_names = joints.get(owner, ())
     for j, i in enumerate(range(sl.start, sl.stop)):
       if base in _QUANTITIES and len(axes) == sl.stop - sl.start and max(axes) < 3:
         names[i] = f"{owner} {_QUANTITIES[base]} {'xyz'[axes[j]]} (obs {i})"
+      elif base in ("joint_pos", "joint_vel") and len(joint_names) == sl.stop - sl.start:
+        names[i] = f"{joint_names[j]}{' velocity' if base == 'joint_vel' else ''} (obs {i})"
       else:
         names[i] = f"{name}[{j}] (obs {i})"
   return [names.get(int(i), f"obs[{int(i)}]") for i in indices]

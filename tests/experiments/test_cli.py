@@ -296,8 +296,11 @@ def test_plot_axes_name_the_quantity_and_the_observation_index():
   from tests.conftest import make_env
   assert feature_labels(make_env("point"), (0, 3)) == ["agent1 position x (obs 0)",
                                                         "agent1 velocity y (obs 3)"]
-  assert feature_labels(make_env("ant"), (13, 14, 7)) == [
-      "agent1 velocity x (obs 13)", "agent1 velocity y (obs 14)", "agent1/joint_pos[2] (obs 7)"]
+  # The ant's joints in its MJCF order: hip_1, ankle_1, hip_2, ... (angles at 5-12, velocities at
+  # 19-26); the quaternion has no per-axis name.
+  assert feature_labels(make_env("ant"), (13, 14, 7, 21, 1)) == [
+      "agent1 velocity x (obs 13)", "agent1 velocity y (obs 14)", "agent1/hip_2 (obs 7)",
+      "agent1/hip_2 velocity (obs 21)", "agent1/root_quat[0] (obs 1)"]
 
 
 @pytest.mark.parametrize("content, suffix, message", [

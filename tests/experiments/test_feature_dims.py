@@ -2,10 +2,12 @@
 
 import math
 import pathlib
+from types import SimpleNamespace
 
 import jax
 import jax.numpy as jnp
 import numpy as np
+import pytest
 
 from blx import objectives
 from tests.conftest import make_env
@@ -38,3 +40,28 @@ def test_scan_finds_the_skill_in_the_dimension_the_policy_uses_and_none_elsewher
   path = str(tmp_path / "dims.png")
   feature_dims.plot(results, [0, 1, 2, 3], path)
   assert pathlib.Path(path).stat().st_size > 10_000
+
+
+def test_scan_run_takes_the_seeds_at_the_positions_asked_in_that_order(monkeypatch):
+  env = make_env("point")
+  objective = objectives.make("diayn", num_skills=2, obs_indices="pos_xy", env=env)
+
+  def scaled_split(params, obs, z, key=None, deterministic=False):  # params: this seed's force
+    return params * _split_on_x(None, obs, z)
+
+  run = SimpleNamespace(env=env, objective=objective, policy=scaled_split,
+                        params=jnp.array([0.0, 1.0]), spec=SimpleNamespace(seeds=(7, 8)))
+  monkeypatch.setattr("blx.experiments.runs.load_run", lambda directory: run)
+  r = feature_dims.scan_run("runs/x", [2], positions=[1, 0])
+  # Position 1 (force 1) parts the two skills in x velocity; position 0 (force 0) never moves.
+  np.testing.assert_allclose(r["mi"][:, 0], [math.log(2), 0.0], atol=1e-6)
+
+
+def test_the_command_refuses_a_seed_a_run_does_not_have(monkeypatch, capsys):
+  monkeypatch.setattr("blx.experiments.runs.read_spec",
+                      lambda directory: SimpleNamespace(seeds=(0, 1), objective="diayn"))
+  for argv, message in ((["runs/a", "--seeds", "0,3"], "runs/a: --seeds 3: the run has 2 seeds"),
+                        (["runs/a", "--seeds", "x"], "runs/a: --seeds 'x': give comma-separated")):
+    with pytest.raises(SystemExit):
+      feature_dims.main(argv)
+    assert message in capsys.readouterr().err
