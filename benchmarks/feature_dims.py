@@ -6,17 +6,16 @@ first 30 dimensions), #15.
                                       [--out feature_dims.png]
 
 Each run's policy is rolled out as the paper's MI evaluation does (every skill, 10 episodes each,
-sampled actions, the last 500 steps), for every seed of the run (or the positions ``--seeds`` names
-in each run's seeds); each dimension's particle MI and
-H(s) (Algorithm 1, 1000 bins over +-obs_scale of the run's objective) are averaged over seeds. One
-figure with two panels (MI per dimension, H(s) per dimension), one bar per run and dimension, and
-a JSON beside it with the numbers.
+sampled actions, the last 500 steps), for every seed of the run, or for the positions in its seeds
+that ``--seeds`` names. Each dimension's particle MI and H(s) (Algorithm 1, 1000 bins over
++-obs_scale of the run's objective) are averaged over those seeds. One figure with two panels (MI
+per dimension, H(s) per dimension; each dimension named from the env's layout), one bar per run and
+dimension, and a JSON beside it with the numbers and the seeds.
 """
 
 from __future__ import annotations
 
 import argparse
-import json
 import os
 import sys
 from typing import Any, Callable
@@ -92,6 +91,20 @@ def plot(results: dict[str, dict], dims, path: str, *, labels: list[str] | None 
   plt.close(fig)
 
 
+def run_labels(specs: dict) -> dict[str, str]:
+  """``{directory: legend entry}``: the objective's name, with the directory's name where that
+  says more than the objective (a sweep point's ``lr=0.001``), or with the whole path where two
+  runs would otherwise share an entry."""
+  labels = {}
+  for directory, spec in specs.items():
+    name = os.path.basename(os.path.normpath(directory))
+    labels[directory] = (spec.objective if name in (spec.objective, f"objective={spec.objective}")
+                         else f"{spec.objective} ({name})")
+  if len(set(labels.values())) < len(labels):
+    labels = {directory: f"{spec.objective} ({directory})" for directory, spec in specs.items()}
+  return labels
+
+
 def main(argv: list[str] | None = None):
   parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
   parser.add_argument("runs", nargs="+", help="run directories (blx train / sweep points)")
@@ -101,7 +114,9 @@ def main(argv: list[str] | None = None):
   parser.add_argument("--out", default="feature_dims.png")
   args = parser.parse_args(argv)
   from blx import envs
-  from blx.experiments import runs
+  from blx.experiments import plots, runs
+  if len(set(args.runs)) < len(args.runs):
+    parser.error(f"a run directory is given twice: {args.runs}")
   specs = {directory: runs.read_spec(directory) for directory in args.runs}
   picked = {}
   for directory, spec in specs.items():
@@ -115,13 +130,9 @@ def main(argv: list[str] | None = None):
     parser.error(f"--dims {args.dims}: the observation has {size} dimensions")
   dims = list(range(args.dims))
   results, seeds = {}, {}
-  for directory, spec in specs.items():
-    name = os.path.basename(os.path.normpath(directory))
-    label = (spec.objective if name in (spec.objective, f"objective={spec.objective}")
-             else f"{spec.objective} ({name})")
+  for directory, label in run_labels(specs).items():
     results[label] = scan_run(directory, dims, positions=picked[directory])
-    seeds[label] = [spec.seeds[i] for i in picked[directory]]
-  from blx.experiments import plots
+    seeds[label] = [specs[directory].seeds[i] for i in picked[directory]]
   counts = sorted({len(s) for s in seeds.values()})
   plot(results, dims, args.out, labels=plots.feature_labels(env, dims),
        title=f"{specs[args.runs[0]].env}, {'/'.join(map(str, counts))} seeds")

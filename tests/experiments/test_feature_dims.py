@@ -61,7 +61,20 @@ def test_the_command_refuses_a_seed_a_run_does_not_have(monkeypatch, capsys):
   monkeypatch.setattr("blx.experiments.runs.read_spec",
                       lambda directory: SimpleNamespace(seeds=(0, 1), objective="diayn"))
   for argv, message in ((["runs/a", "--seeds", "0,3"], "runs/a: --seeds 3: the run has 2 seeds"),
-                        (["runs/a", "--seeds", "x"], "runs/a: --seeds 'x': give comma-separated")):
+                        (["runs/a", "--seeds", "x"], "runs/a: --seeds 'x': give comma-separated"),
+                        (["runs/a", "runs/a"], "a run directory is given twice")):
     with pytest.raises(SystemExit):
       feature_dims.main(argv)
     assert message in capsys.readouterr().err
+
+
+def test_legend_entries_stay_apart_when_two_runs_share_an_objective():
+  spec = SimpleNamespace(objective="diayn")
+  assert feature_dims.run_labels({"sweeps/a/objective=diayn": spec,
+                                  "sweeps/b/lr=0.001": spec}) == {
+      "sweeps/a/objective=diayn": "diayn", "sweeps/b/lr=0.001": "diayn (lr=0.001)"}
+  # Two sweeps' points of one name would share "diayn": the whole paths part them.
+  assert feature_dims.run_labels({"sweeps/a/objective=diayn": spec,
+                                  "sweeps/b/objective=diayn": spec}) == {
+      "sweeps/a/objective=diayn": "diayn (sweeps/a/objective=diayn)",
+      "sweeps/b/objective=diayn": "diayn (sweeps/b/objective=diayn)"}
