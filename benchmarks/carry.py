@@ -177,6 +177,9 @@ def unpack(parts: list[str], dest: str) -> list[str]:
             tar.extract(member, stage, filter="data")
           else:  # pragma: no cover - Python before 3.11.4
             tar.extract(member, stage)
+    except getattr(tarfile, "FilterError", ()) as e:
+      raise CarryError(f"unpack: the parts {ordered[0]} .. {ordered[-1]} hold an entry that would "
+                       f"land outside --into ({e}); they are not a pack that carry.py wrote") from None
     except tarfile.ReadError as e:
       raise CarryError(f"unpack: the parts {ordered[0]} .. {ordered[-1]} are not a whole pack "
                        f"({e}); was a part cut short?") from None

@@ -2,7 +2,9 @@
 envs' state unless asked; refusals of parts that are not one whole pack and of a pack that would
 land on existing files."""
 
+import io
 import os
+import tarfile
 from typing import NamedTuple
 
 import numpy as np
@@ -127,3 +129,17 @@ def test_the_command_names_what_is_wrong(tmp_path, capsys):
     carry.main(["unpack", str(tmp_path / "x.tar.part_001"), "--into", str(tmp_path / "d")])
   assert e.value.code == 2
   assert "part 000 of 2 is missing" in capsys.readouterr().err
+
+
+@pytest.mark.skipif(not hasattr(tarfile, "data_filter"), reason="tar filters: Python >= 3.11.4")
+def test_an_entry_that_would_land_outside_the_destination_is_refused(tmp_path):
+  out = tmp_path / "out"
+  os.makedirs(out)
+  payload = b"x"
+  with tarfile.open(out / "evil.tar.part_000", "w") as tar:
+    info = tarfile.TarInfo("../outside.txt")
+    info.size = len(payload)
+    tar.addfile(info, io.BytesIO(payload))
+  with pytest.raises(carry.CarryError, match="would land outside --into"):
+    carry.unpack([str(out / "evil.tar.part_000")], str(tmp_path / "dest"))
+  assert not (tmp_path / "outside.txt").exists() and os.listdir(tmp_path / "dest") == []
