@@ -90,6 +90,12 @@ class _PartReader:
       self._file.close()
 
 
+def _files(tree: str) -> list[str]:
+  """Every file under ``tree``, as paths relative to it, sorted."""
+  return sorted(os.path.relpath(os.path.join(root, f), tree)
+                for root, _, names in os.walk(tree) for f in names)
+
+
 def checkpoints(directory: str) -> list[str]:
   """The checkpoint directories (holding ``checkpoint.npz``) anywhere under ``directory``."""
   from blx.training import checkpoint
@@ -129,9 +135,7 @@ def pack(directory: str, out_dir: str, name: str, *, part_mb: float = 15,
       with tarfile.open(fileobj=writer, mode="w|") as tar:
         for entry in sorted(os.listdir(tree)):
           tar.add(os.path.join(tree, entry), arcname=entry)
-        files = sorted(os.path.relpath(os.path.join(root, f), tree)
-                       for root, _, names in os.walk(tree) for f in names)
-        manifest = json.dumps({"files": files}).encode()
+        manifest = json.dumps({"files": _files(tree)}).encode()
         info = tarfile.TarInfo(MANIFEST)
         info.size = len(manifest)
         tar.addfile(info, io.BytesIO(manifest))
@@ -191,8 +195,7 @@ def unpack(parts: list[str], dest: str) -> list[str]:
     with open(manifest) as f:
       files = json.load(f)["files"]
     os.remove(manifest)
-    got = sorted(os.path.relpath(os.path.join(root, f), stage)
-                 for root, _, names in os.walk(stage) for f in names)
+    got = _files(stage)
     if got != files:
       raise CarryError(f"unpack: the parts hold {len(got)} files where the pack lists "
                        f"{len(files)}; they are not the pack that was written")
