@@ -3,6 +3,7 @@ row, trained with the row's protocol, compared by curves and by a Welch test aga
 
     python benchmarks/ablations.py STUDY [--env ant|humanoid|halfcheetah] [--seeds 10]
                                          [--out sweeps/ablations] [--steps N] [--arm VALUE]
+                                         [--config JSON] [--reference NAME=PATH]
     python benchmarks/ablations.py STUDY --report    # only the curves and table of what has run
 
 Studies (``--list`` prints them):
@@ -25,7 +26,10 @@ evaluation. Points already evaluated are reused, so ``--arm`` lets one process p
 arm and a last call (``--report``) draws them together. Writes ``OUT/STUDY_ENV/``: the sweep's run
 directories, ``curves.png`` (each metric against env steps, mean and std over seeds per arm) and
 ``ablation.md`` (each arm's final metrics, mean +- std over seeds, Welch's t-test against the first
-arm).
+arm). ``--reference NAME=PATH`` adds another run trained with ``--eval-metrics`` (its directory or
+metrics.csv; e.g. a finished row trained with another setting): its curve is drawn over the arms'
+span, and each arm's last evaluation is tested against the reference's at the same env steps. So an
+arm run for a fraction of a row's steps is compared with the row where the row was.
 """
 
 from __future__ import annotations
@@ -91,9 +95,11 @@ _STEP_LABELS = ("blx's step: 16 x 3.125 ms", "8 x 6.25 ms")
 
 STUDIES = {
     "sn_diayn": Study("mimax", ("diayn",), "spectral_norm", (True, False),
-                      ("eval/mi", "eval/entropy"), "spectral norm improves DIAYN's MI and H(s)"),
+                      ("eval/mi", "eval/entropy", "eval/lgr"),
+                      "spectral norm improves DIAYN's MI and H(s)"),
     "sn_cdiayn": Study("mimax", ("cdiayn",), "spectral_norm", (True, False),
-                       ("eval/mi", "eval/entropy"), "spectral norm makes cDIAYN's skills distinct"),
+                       ("eval/mi", "eval/entropy", "eval/lgr"),
+                       "spectral norm makes cDIAYN's skills distinct"),
     "gp": Study("dmin", ("airl", "gail"), "gradient_penalty_weight", (0.0, 1.0, 10.0),
                 ("eval/energy_distance",), "gradient penalty does not help much; too much hurts"),
     "skills": Study("mimax", ("diayn",), "num_skills", (8, 2, 4, 16), ("eval/mi", "eval/entropy"),
@@ -117,29 +123,38 @@ LABELS = {"eval/mi": "MI(s, z)", "eval/entropy": "H(s)", "eval/lgr": "LGR (lower
           "eval/episode_env_reward": "episode env reward"}
 
 
-def spec(study: Study, env: str, seeds: int, steps: int | None = None) -> dict:
-  """One sweep over the study's objectives x values, on the settings of the paper's row."""
+def spec(study: Study, env: str, seeds: int, steps: int | None = None,
+         config: dict | None = None) -> dict:
+  """One sweep over the study's objectives x values, on the settings of the paper's row (with the
+  PPO settings ``config`` over the row's, e.g. ``num_evals``, for every arm)."""
   if study.envs is not None and env not in study.envs:
     raise ValueError(f"env {env!r}: this study is defined for {list(study.envs)}")
-  base = paper_tables.specs(seeds, steps=steps, env=env)[study.family]
+  base = paper_tables.specs(seeds, steps=steps, env=env, config=config)[study.family]
   varied = dict(base[study.group])
   varied[study.option] = list(study.values)
   return dict(base, name=f"ablation_{study.option}_{env}", objective=list(study.objectives),
               **{study.group: varied})
 
 
+def _by_step(rows: list[dict], key: str) -> dict[float, dict[int, float]]:
+  """``{env steps: {seed: value}}`` of ``key`` in metrics.csv rows (rows without a value left out)."""
+  by_step: dict[float, dict[int, float]] = {}
+  for row in rows:
+    value = row.get(key)
+    if value not in (None, ""):
+      by_step.setdefault(float(row["env_steps"]), {})[int(float(row["seed"]))] = float(value)
+  return by_step
+
+
 def curve(rows: list[dict], key: str) -> tuple[list[float], list[float], list[float]]:
   """``(env steps, mean, std)`` over seeds of ``key`` in metrics.csv rows, at every evaluation
   where every seed has a value."""
-  by_step: dict[float, list[float]] = {}
-  for row in rows:
-    value = row.get(key, "")
-    if value not in ("", None) and math.isfinite(float(value)):
-      by_step.setdefault(float(row["env_steps"]), []).append(float(value))
+  by_step = _by_step(rows, key)
   seeds = max((len(v) for v in by_step.values()), default=0)
   steps = sorted(s for s, v in by_step.items() if len(v) == seeds)
-  mean = [sum(by_step[s]) / seeds for s in steps]
-  std = [math.sqrt(sum((x - m) ** 2 for x in by_step[s]) / seeds) for s, m in zip(steps, mean)]
+  mean = [sum(by_step[s].values()) / seeds for s in steps]
+  std = [math.sqrt(sum((x - m) ** 2 for x in by_step[s].values()) / seeds)
+         for s, m in zip(steps, mean)]
   return steps, mean, std
 
 
@@ -167,9 +182,60 @@ def compare(arms: dict[str, dict], metrics: tuple[str, ...]) -> list[str]:
   return rows
 
 
-def report(study_name: str, study: Study, directory: str, sweep_spec: dict) -> str:
+def against(curves: dict[str, list[dict]], name: str, reference: list[dict],
+            metrics: tuple[str, ...]) -> list[str]:
+  """Markdown rows: each arm's last evaluation in its metrics.csv (where every seed has a value)
+  against the evaluation of ``reference`` (another run's metrics.csv rows, e.g. a finished row's)
+  at the same env steps, Welch's t-test. ``curves``: ``{arm label: metrics.csv rows}``."""
+  from scipy import stats
+  rows = [f"| arm | metric | env steps | arm: mean ± std (seeds) | {name}: mean ± std (seeds) "
+          "| Welch t | p |", "| --- | --- | ---: | ---: | ---: | ---: | ---: |"]
+  for label, arm_rows in curves.items():
+    for key in metrics:
+      steps = curve(arm_rows, key)[0]
+      if not steps:
+        continue
+      step = steps[-1]
+      values = list(_by_step(arm_rows, key)[step].values())
+      ref_by_step = _by_step(reference, key)
+      mean, std = paper_tables.mean_std(values)
+      cells = [label, key, f"{step / 1e6:.1f} M", f"{mean:.3f} ± {std:.3f} ({len(values)})"]
+      ref = list(ref_by_step.get(step, {}).values())
+      if not ref:
+        near = sorted(ref_by_step, key=lambda s: abs(s - step))[:2]
+        cells += [f"no evaluation at {step / 1e6:.2f} M (nearest: "
+                  f"{', '.join(f'{s / 1e6:.2f} M' for s in sorted(near)) or 'none'})", "", ""]
+      else:
+        ref_mean, ref_std = paper_tables.mean_std(ref)
+        cells.append(f"{ref_mean:.3f} ± {ref_std:.3f} ({len(ref)})")
+        if len(values) > 1 and len(ref) > 1:
+          test = stats.ttest_ind(values, ref, equal_var=False)
+          cells += [f"{test.statistic:+.2f}", f"{test.pvalue:.3f}"]
+        else:
+          cells += ["", ""]
+      rows.append("| " + " | ".join(cells) + " |")
+  return rows
+
+
+def read_reference(path: str, metrics: tuple[str, ...]) -> list[dict]:
+  """The metrics.csv rows of ``path`` (a run directory or a metrics.csv file); refuses one that
+  logs none of ``metrics`` (a run trained without ``--eval-metrics``)."""
+  csv_path = os.path.join(path, "metrics.csv") if os.path.isdir(path) else path
+  if not os.path.isfile(csv_path):
+    raise ValueError(f"{path}: not a run directory with metrics.csv, nor a metrics.csv file")
+  with open(csv_path) as f:
+    rows = list(csv.DictReader(f))
+  logged = [k for k in metrics if any(row.get(k) not in (None, "") for row in rows)]
+  if not logged:
+    raise ValueError(f"{csv_path}: logs none of {list(metrics)} (train it with --eval-metrics)")
+  return rows
+
+
+def report(study_name: str, study: Study, directory: str, sweep_spec: dict,
+           reference: tuple[str, list[dict]] | None = None) -> str:
   """Draws ``curves.png`` and writes ``ablation.md`` for the arms of ``sweep_spec`` evaluated under
-  ``directory``."""
+  ``directory``. ``reference``: ``(name, metrics.csv rows)`` of another run (``read_reference``),
+  drawn over the arms' span of env steps and compared with each arm's last evaluation."""
   import matplotlib
   matplotlib.use("Agg")
   import matplotlib.pyplot as plt
@@ -197,6 +263,15 @@ def report(study_name: str, study: Study, directory: str, sweep_spec: dict) -> s
       ax.plot(x, mean, label=labels[name])
       ax.fill_between(x, [m - s for m, s in zip(mean, std)], [m + s for m, s in zip(mean, std)],
                       alpha=0.2)
+    if reference is not None:
+      steps, mean, std = curve(reference[1], key)
+      span = max((float(r["env_steps"]) for rows in curves.values() for r in rows), default=0.0)
+      shown = [(s / 1e6, m, d) for s, m, d in zip(steps, mean, std) if s <= span]
+      if shown:
+        x, m, d = zip(*shown)
+        ax.plot(x, m, "k--", label=reference[0])
+        ax.fill_between(x, [a - b for a, b in zip(m, d)], [a + b for a, b in zip(m, d)],
+                        color="k", alpha=0.1)
     ax.set_xlabel("env steps per seed (millions)")
     ax.set_title(LABELS.get(key, key))
     ax.grid(alpha=0.3)
@@ -207,6 +282,11 @@ def report(study_name: str, study: Study, directory: str, sweep_spec: dict) -> s
   fig.savefig(os.path.join(directory, "curves.png"), dpi=120)
   plt.close(fig)
   table = "\n".join(compare({labels[name]: arm for name, arm in arms.items()}, study.metrics))
+  if reference is not None:
+    rows = against({labels[name]: rows for name, rows in curves.items()}, reference[0],
+                   reference[1], study.metrics)
+    table += (f"\n\nEach arm's last evaluation during training against {reference[0]} at the same "
+              "env steps:\n\n" + "\n".join(rows))
   with open(os.path.join(directory, "ablation.md"), "w") as f:
     f.write(f"# {study_name}\n\n{study.claim_line[0].upper()}{study.claim_line[1:]}.\n\n{table}\n")
   return table
@@ -222,6 +302,12 @@ def main():
                       help="env steps per seed (default the paper's: the env's PPO row x 2)")
   parser.add_argument("--arm", action="append", default=None, metavar="VALUE",
                       help="train only the arms with this value (JSON, e.g. false or 10.0)")
+  parser.add_argument("--config", default=None, metavar="JSON",
+                      help="PPO settings over the row's for every arm, e.g. '{\"num_evals\": 12}'")
+  parser.add_argument("--reference", default=None, metavar="NAME=PATH",
+                      help="another run (its directory or metrics.csv, trained with "
+                           "--eval-metrics) to draw beside the arms and compare with each arm's "
+                           "last evaluation at the same env steps, e.g. a finished row")
   parser.add_argument("--out", default="sweeps/ablations")
   parser.add_argument("--report", action="store_true", help="only draw and tabulate")
   args = parser.parse_args()
@@ -233,8 +319,30 @@ def main():
   from blx.experiments import sweep
   study = STUDIES[args.study]
   directory = os.path.join(args.out, f"{args.study}_{args.env}")
+  config = None
+  if args.config is not None:
+    try:
+      config = json.loads(args.config)
+    except json.JSONDecodeError as e:
+      parser.error(f"--config: not JSON ({e})")
+    if not isinstance(config, dict):
+      parser.error(f"--config: a JSON object of PPO settings, not {args.config}")
+    from blx import training
+    try:  # a bad key or value is named now, not after the first arm has trained
+      training.ppo_defaults(args.env).replace(**config)
+    except ValueError as e:
+      parser.error(f"--config: {e}")
+  reference = None
+  if args.reference is not None:
+    name, sep, path = args.reference.partition("=")
+    if not (sep and name and path):
+      parser.error(f"--reference {args.reference!r}: give NAME=PATH")
+    try:
+      reference = (name, read_reference(path, study.metrics))
+    except ValueError as e:
+      parser.error(f"--reference: {e}")
   try:
-    sweep_spec = spec(study, args.env, args.seeds, args.steps)
+    sweep_spec = spec(study, args.env, args.seeds, args.steps, config)
   except ValueError as e:  # an env the study is not defined for
     parser.error(f"{args.study} --env {args.env}: {e}")
   if not args.report:
@@ -251,7 +359,7 @@ def main():
     select = None if only is None else (
         lambda name, run_spec: study.value(run_spec) in only)
     sweep.run_sweep(sweep_spec, directory, select=select, eval_metrics=True)
-  print(report(args.study, study, directory, sweep_spec))
+  print(report(args.study, study, directory, sweep_spec, reference))
 
 
 if __name__ == "__main__":

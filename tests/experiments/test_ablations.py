@@ -123,3 +123,80 @@ def test_legend_entries_are_the_studys_labels_where_given_and_the_point_names_ot
   assert [gp.label(n, s) for n, s in points][:2] == [
       "objective=airl, gradient_penalty_weight=0.0", "objective=airl, gradient_penalty_weight=1.0"]
   assert gp.claim_line.startswith("the paper: ")
+
+
+def _write_metrics(path, values, key="eval/mi"):
+  """A metrics.csv with ``values[(seed, env steps)]`` of ``key``."""
+  with open(path, "w", newline="") as f:
+    w = csv.DictWriter(f, ["seed", "env_steps", key])
+    w.writeheader()
+    for (seed, step), v in values.items():
+      w.writerow({"seed": seed, "env_steps": step, key: v})
+
+
+def test_against_tests_each_arms_last_evaluation_against_the_reference_at_the_same_steps(tmp_path):
+  arm = [{"seed": s, "env_steps": step, "eval/mi": v}
+         for (s, step), v in {(0, 10): 0.1, (1, 10): 0.3, (0, 20): 1.0, (1, 20): 1.2}.items()]
+  # The reference ran on past the arm: only its evaluation at 20 counts, not its last (at 40).
+  reference = [{"seed": s, "env_steps": step, "eval/mi": v}
+               for (s, step), v in {(0, 20): 0.4, (1, 20): 0.6, (2, 20): 0.5,
+                                    (0, 40): 9.0, (1, 40): 9.0, (2, 40): 9.0}.items()]
+  rows = ablations.against({"arm": arm}, "the row", reference, ("eval/mi", "eval/lgr"))
+  assert len(rows) == 3  # the header, its rule, and eval/mi only: neither logs eval/lgr
+  cells = rows[2].strip("| ").split(" | ")
+  assert cells[:5] == ["arm", "eval/mi", "0.0 M", "1.100 ± 0.100 (2)", "0.500 ± 0.082 (3)"]
+  from scipy import stats
+  want = stats.ttest_ind([1.0, 1.2], [0.4, 0.6, 0.5], equal_var=False)
+  assert float(cells[5]) == pytest.approx(want.statistic, abs=0.01)
+  assert float(cells[6]) == pytest.approx(want.pvalue, abs=0.001)
+  # A reference never evaluated at the arm's last steps is said so, with its nearest steps.
+  off_grid = [dict(r, env_steps=r["env_steps"] + 5e6) for r in reference]
+  row = ablations.against({"arm": arm}, "the row", off_grid, ("eval/mi",))[2]
+  assert "no evaluation at 0.00 M (nearest: 5.00 M, 5.00 M)" in row
+
+
+def test_read_reference_takes_a_run_directory_or_its_csv_and_refuses_one_without_the_metrics(
+    tmp_path):
+  _write_metrics(tmp_path / "metrics.csv", {(0, 10): 0.5})
+  assert ablations.read_reference(str(tmp_path), ("eval/mi",))[0]["eval/mi"] == "0.5"
+  assert len(ablations.read_reference(str(tmp_path / "metrics.csv"), ("eval/mi",))) == 1
+  with pytest.raises(ValueError, match=r"logs none of \['eval/energy_distance'\].*--eval-metrics"):
+    ablations.read_reference(str(tmp_path), ("eval/energy_distance",))
+  with pytest.raises(ValueError, match="not a run directory with metrics.csv"):
+    ablations.read_reference(str(tmp_path / "missing"), ("eval/mi",))
+
+
+def test_report_draws_the_reference_and_compares_the_arms_with_it(tmp_path):
+  study = ablations.STUDIES["step_diayn"]
+  spec = ablations.spec(study, "halfcheetah", 2, steps=2000, config={"num_evals": 2})
+  assert all(s.ppo == {"num_evals": 2, "num_timesteps": 2000} for _, s in sweep.expand(spec))
+  name = sweep.expand(spec)[0][0]
+  (tmp_path / name).mkdir()
+  (tmp_path / name / "eval.json").write_text(json.dumps(_arm("diayn", [1.0, 1.2])))
+  _write_metrics(tmp_path / name / "metrics.csv",
+                 {(0, 1000): 0.5, (1, 1000): 0.7, (0, 2000): 1.0, (1, 2000): 1.2})
+  reference = [{"seed": s, "env_steps": step, "eval/mi": 0.1 * step / 1000 + 0.1 * s}
+               for s in (0, 1) for step in (1000, 2000, 9000)]
+  table = ablations.report("step_diayn", study, str(tmp_path), spec, ("the row", reference))
+  assert "against the row at the same env steps" in table
+  assert "| blx's step: 16 x 3.125 ms | eval/mi | 0.0 M | 1.100 ± 0.100 (2) | 0.250 ± 0.050 (2)" \
+      in table
+  assert os.path.getsize(tmp_path / "curves.png") > 10_000
+
+
+@pytest.mark.parametrize("argv,message", [
+    (["--reference", "no-equals-sign"], "give NAME=PATH"),
+    (["--reference", "row=/nowhere"], "not a run directory"),
+    (["--config", "[1]"], "a JSON object of PPO settings"),
+    (["--config", '{"num_evalz": 3}'], r"unknown key\(s\) \['num_evalz'\]"),
+])
+def test_bad_reference_or_config_is_refused_before_anything_trains(argv, message, monkeypatch,
+                                                                     capsys, tmp_path):
+  trained = []
+  monkeypatch.setattr(sweep, "run_sweep", lambda *a, **k: trained.append(a))
+  monkeypatch.setattr("sys.argv", ["ablations.py", "sn_diayn", "--out", str(tmp_path), *argv])
+  with pytest.raises(SystemExit):
+    ablations.main()
+  import re
+  assert re.search(message, capsys.readouterr().err)
+  assert not trained
