@@ -137,11 +137,12 @@ def spec(study: Study, env: str, seeds: int, steps: int | None = None,
 
 
 def _by_step(rows: list[dict], key: str) -> dict[float, dict[int, float]]:
-  """``{env steps: {seed: value}}`` of ``key`` in metrics.csv rows (rows without a value left out)."""
+  """``{env steps: {seed: value}}`` of ``key`` in metrics.csv rows (rows without a finite value
+  left out)."""
   by_step: dict[float, dict[int, float]] = {}
   for row in rows:
     value = row.get(key)
-    if value not in (None, ""):
+    if value not in (None, "") and math.isfinite(float(value)):
       by_step.setdefault(float(row["env_steps"]), {})[int(float(row["seed"]))] = float(value)
   return by_step
 
@@ -199,7 +200,7 @@ def against(curves: dict[str, list[dict]], name: str, reference: list[dict],
       values = list(_by_step(arm_rows, key)[step].values())
       ref_by_step = _by_step(reference, key)
       mean, std = paper_tables.mean_std(values)
-      cells = [label, key, f"{step / 1e6:.1f} M", f"{mean:.3f} ± {std:.3f} ({len(values)})"]
+      cells = [label, key, f"{step / 1e6:.2f} M", f"{mean:.3f} ± {std:.3f} ({len(values)})"]
       ref = list(ref_by_step.get(step, {}).values())
       if not ref:
         near = sorted(ref_by_step, key=lambda s: abs(s - step))[:2]

@@ -60,8 +60,8 @@ def test_the_step_studies_keep_the_cheetahs_env_step_and_iterations():
 
 
 def test_curve_is_the_mean_and_std_over_seeds_where_every_seed_was_evaluated():
-  values = {(0, 10): "1.0", (1, 10): "3.0", (0, 20): "2.0", (1, 20): "",  # seed 1 missed step 20
-            (0, 30): "4.0", (1, 30): "6.0"}
+  values = {(0, 10): "1.0", (1, 10): "3.0", (0, 20): "2.0", (1, 20): "nan",  # seed 1 diverged
+            (0, 30): "4.0", (1, 30): "6.0", (0, 40): "5.0", (1, 40): ""}  # seed 1 not yet at 40
   rows = [{"seed": seed, "env_steps": step, "eval/mi": v} for (seed, step), v in values.items()]
   steps, mean, std = ablations.curve(rows, "eval/mi")
   assert steps == [10.0, 30.0] and mean == [2.0, 5.0] and std == [1.0, 1.0]
@@ -144,7 +144,7 @@ def test_against_tests_each_arms_last_evaluation_against_the_reference_at_the_sa
   rows = ablations.against({"arm": arm}, "the row", reference, ("eval/mi", "eval/lgr"))
   assert len(rows) == 3  # the header, its rule, and eval/mi only: neither logs eval/lgr
   cells = rows[2].strip("| ").split(" | ")
-  assert cells[:5] == ["arm", "eval/mi", "0.0 M", "1.100 ± 0.100 (2)", "0.500 ± 0.082 (3)"]
+  assert cells[:5] == ["arm", "eval/mi", "0.00 M", "1.100 ± 0.100 (2)", "0.500 ± 0.082 (3)"]
   from scipy import stats
   want = stats.ttest_ind([1.0, 1.2], [0.4, 0.6, 0.5], equal_var=False)
   assert float(cells[5]) == pytest.approx(want.statistic, abs=0.01)
@@ -179,7 +179,7 @@ def test_report_draws_the_reference_and_compares_the_arms_with_it(tmp_path):
                for s in (0, 1) for step in (1000, 2000, 9000)]
   table = ablations.report("step_diayn", study, str(tmp_path), spec, ("the row", reference))
   assert "against the row at the same env steps" in table
-  assert "| blx's step: 16 x 3.125 ms | eval/mi | 0.0 M | 1.100 ± 0.100 (2) | 0.250 ± 0.050 (2)" \
+  assert "| blx's step: 16 x 3.125 ms | eval/mi | 0.00 M | 1.100 ± 0.100 (2) | 0.250 ± 0.050 (2)" \
       in table
   assert os.path.getsize(tmp_path / "curves.png") > 10_000
 
