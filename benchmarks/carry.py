@@ -1,7 +1,9 @@
 """Carries runs between machines in parts small enough for a transfer limit: a device call here
-brings back at most 8 files of 16 MiB, and a row of #15 outlives the machine it started on.
+brings back at most 8 files of 16 MiB (64 MiB together), and a row of #15 outlives the machine it
+started on.
 
     python benchmarks/carry.py pack DIR OUT_DIR [--name NAME] [--part-mb 15] [--keep-env-state]
+    python benchmarks/carry.py send STAGE OUT_DIR [--call-mib 64] [--call-files 8]
     python benchmarks/carry.py unpack OUT_DIR/NAME.tar.part_* --into DEST
 
 ``pack`` writes the directory tree ``DIR`` (one run, or a sweep's ``--out`` with its points) as one
@@ -9,6 +11,11 @@ tar stream cut into ``NAME.tar.part_000``, ``_001``, ... of at most ``--part-mb`
 checkpoint in it goes without the envs' simulator state (``training.drop_env_state``: an Ant or
 half-cheetah row's 464 MB become 33 MB), unless ``--keep-env-state``; ``DIR`` itself is not
 changed. A run resumed from it starts every env on a new episode.
+
+``send`` is for a pack larger than one call brings back (8 files, 64 MiB together): pack into a
+staging directory on the device machine, then let each call end with ``send STAGE $OUT``. It moves
+the next parts, in order, that fit beside what ``OUT_DIR`` already holds, and says how many are
+left for the next call.
 
 ``unpack`` joins the parts in order and extracts them into ``DEST``, so that ``DEST/<DIR's
 contents>`` is the tree again and the same training command resumes it. It refuses a missing part,
@@ -27,6 +34,7 @@ import tarfile
 import tempfile
 
 MB = 1_000_000
+MIB = 1 << 20
 MANIFEST = ".carry-manifest.json"  # the pack's last member: the files it holds, so that a pack
 # cut short between two members (a lost last part) is told from a whole one
 _PART = re.compile(r"^(?P<name>.+)\.tar\.part_(?P<index>\d{3,})$")
@@ -144,6 +152,37 @@ def pack(directory: str, out_dir: str, name: str, *, part_mb: float = 15,
   return writer.paths
 
 
+def send(stage: str, out_dir: str, *, call_mib: float = 64, call_files: int = 8
+         ) -> tuple[list[str], list[str]]:
+  """Moves the next parts in ``stage`` (in pack and part order) into ``out_dir``, as many as fit
+  beside the files already there: at most ``call_files`` files and ``call_mib`` MiB in all.
+  Returns ``(moved, left)``: the moved parts' new paths and the parts still in ``stage``."""
+  if not os.path.isdir(stage):
+    raise CarryError(f"send: {stage!r} is not a directory")
+  parts = sorted((m["name"], int(m["index"]), f) for f in os.listdir(stage)
+                 if (m := _PART.match(f)) is not None)
+  if not parts:
+    raise CarryError(f"send: no parts (NAME.tar.part_NNN) in {stage!r}; pack into it first")
+  os.makedirs(out_dir, exist_ok=True)
+  there = [os.path.join(out_dir, f) for f in os.listdir(out_dir)]
+  files = len(there)
+  size = sum(os.path.getsize(f) for f in there if os.path.isfile(f))
+  moved = []
+  for _, _, part in parts:
+    part_size = os.path.getsize(os.path.join(stage, part))
+    if files + 1 > call_files or size + part_size > call_mib * MIB:
+      break
+    os.replace(os.path.join(stage, part), os.path.join(out_dir, part))
+    moved.append(os.path.join(out_dir, part))
+    files, size = files + 1, size + part_size
+  if not moved:
+    raise CarryError(f"send: {parts[0][2]} ({os.path.getsize(os.path.join(stage, parts[0][2])) / MIB:.1f}"
+                     f" MiB) does not fit beside the {len(there)} files ({size / MIB:.1f} MiB) in "
+                     f"{out_dir!r} within {call_files} files and {call_mib:g} MiB; pack with a "
+                     "smaller --part-mb or leave OUT_DIR emptier")
+  return moved, [os.path.join(stage, f) for _, _, f in parts[len(moved):]]
+
+
 def _ordered(parts: list[str]) -> list[str]:
   """``parts`` in stream order, after checking they are every part of one stream."""
   if not parts:
@@ -227,6 +266,13 @@ def main(argv: list[str] | None = None) -> None:
   p.add_argument("--part-mb", type=float, default=15, help="the largest part, in MB (default 15)")
   p.add_argument("--keep-env-state", action="store_true",
                  help="keep the envs' simulator state in every checkpoint")
+  s = sub.add_parser("send", help="move the next parts that fit one call from STAGE to OUT_DIR")
+  s.add_argument("stage")
+  s.add_argument("out_dir")
+  s.add_argument("--call-mib", type=float, default=64,
+                 help="what one call brings back in all, in MiB (default 64)")
+  s.add_argument("--call-files", type=int, default=8,
+                 help="how many files one call brings back (default 8)")
   u = sub.add_parser("unpack", help="extract parts into --into")
   u.add_argument("parts", nargs="+")
   u.add_argument("--into", required=True, help="the directory the tree lands in")
@@ -238,6 +284,13 @@ def main(argv: list[str] | None = None) -> None:
                    keep_env_state=args.keep_env_state)
       print(f"wrote {len(paths)} parts, {sum(os.path.getsize(p) for p in paths) / MB:.1f} MB: "
             f"{paths[0]} .. {paths[-1]}")
+    elif args.command == "send":
+      moved, left = send(args.stage, args.out_dir, call_mib=args.call_mib,
+                         call_files=args.call_files)
+      print(f"sent {len(moved)} parts: {os.path.basename(moved[0])} .. "
+            f"{os.path.basename(moved[-1])}; "
+            + (f"{len(left)} left in {args.stage}: send again in the next call" if left
+               else "none left"))
     else:
       print(f"unpacked into {args.into}: {', '.join(unpack(args.parts, args.into))}")
   except CarryError as e:

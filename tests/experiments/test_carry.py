@@ -143,3 +143,53 @@ def test_an_entry_that_would_land_outside_the_destination_is_refused(tmp_path):
   with pytest.raises(carry.CarryError, match="would land outside --into"):
     carry.unpack([str(out / "evil.tar.part_000")], str(tmp_path / "dest"))
   assert not (tmp_path / "outside.txt").exists() and os.listdir(tmp_path / "dest") == []
+
+
+def test_send_moves_the_parts_a_call_can_bring_back_until_none_are_left(tmp_path):
+  stage = tmp_path / "stage"
+  parts = carry.pack(_tree(tmp_path), str(stage), "hc", part_mb=PART_MB, keep_env_state=True)
+  assert len(parts) >= 5
+  part_mib = PART_MB * carry.MB / carry.MIB
+  received = []
+  for call in range(len(parts)):
+    out = tmp_path / f"out{call}"
+    os.makedirs(out)
+    # The call's own output counts towards its limit: beside this log, one part fits, not two.
+    (out / "train.log").write_bytes(b"x" * int(0.6 * PART_MB * carry.MB))
+    moved, left = carry.send(str(stage), str(out), call_mib=2.5 * part_mib, call_files=8)
+    # Parts leave the stage in stream order.
+    assert [os.path.basename(p) for p in moved] == [
+        os.path.basename(p) for p in parts[len(received):len(received) + len(moved)]]
+    sent = sum(os.path.getsize(f) for f in out.iterdir())
+    assert sent <= 2.5 * part_mib * carry.MIB
+    if left:  # as many as fit: one whole part, and the next would not
+      assert len(moved) == 1
+      assert sent + os.path.getsize(left[0]) > 2.5 * part_mib * carry.MIB
+    received += moved
+    if not left:
+      break
+  assert os.listdir(stage) == []
+  assert carry.unpack(received, str(tmp_path / "dest")) == ["mimax"]
+  # The file count binds too: one slot left beside seven files takes one part.
+  stage2 = tmp_path / "stage2"
+  carry.pack(_tree(tmp_path / "again"), str(stage2), "hc", part_mb=PART_MB)
+  full = tmp_path / "full"
+  os.makedirs(full)
+  for i in range(7):
+    (full / f"log{i}").write_bytes(b"")
+  moved, left = carry.send(str(stage2), str(full))
+  assert len(moved) == 1 and left
+
+
+def test_send_names_what_is_wrong(tmp_path, capsys):
+  with pytest.raises(carry.CarryError, match="no parts"):
+    carry.send(str(tmp_path), str(tmp_path / "out"))
+  stage = tmp_path / "stage"
+  carry.pack(_tree(tmp_path), str(stage), "hc", part_mb=PART_MB)
+  with pytest.raises(carry.CarryError, match=r"does not fit beside the 0 files .* smaller --part-mb"):
+    carry.send(str(stage), str(tmp_path / "out"), call_mib=0.001)
+  with pytest.raises(SystemExit) as e:
+    carry.main(["send", str(tmp_path / "nowhere"), str(tmp_path / "out")])
+  assert e.value.code == 2 and "is not a directory" in capsys.readouterr().err
+  carry.main(["send", str(stage), str(tmp_path / "out")])
+  assert "none left" in capsys.readouterr().out
