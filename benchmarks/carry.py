@@ -176,7 +176,8 @@ def send(stage: str, out_dir: str, *, call_mib: float = 64, call_files: int = 8
     moved.append(os.path.join(out_dir, part))
     files, size = files + 1, size + part_size
   if not moved:
-    raise CarryError(f"send: {parts[0][2]} ({os.path.getsize(os.path.join(stage, parts[0][2])) / MIB:.1f}"
+    first = parts[0][2]
+    raise CarryError(f"send: {first} ({os.path.getsize(os.path.join(stage, first)) / MIB:.1f}"
                      f" MiB) does not fit beside the {len(there)} files ({size / MIB:.1f} MiB) in "
                      f"{out_dir!r} within {call_files} files and {call_mib:g} MiB; pack with a "
                      "smaller --part-mb or leave OUT_DIR emptier")

@@ -186,7 +186,8 @@ def test_send_names_what_is_wrong(tmp_path, capsys):
     carry.send(str(tmp_path), str(tmp_path / "out"))
   stage = tmp_path / "stage"
   carry.pack(_tree(tmp_path), str(stage), "hc", part_mb=PART_MB)
-  with pytest.raises(carry.CarryError, match=r"does not fit beside the 0 files .* smaller --part-mb"):
+  with pytest.raises(carry.CarryError,
+                     match=r"does not fit beside the 0 files .* smaller --part-mb"):
     carry.send(str(stage), str(tmp_path / "out"), call_mib=0.001)
   with pytest.raises(SystemExit) as e:
     carry.main(["send", str(tmp_path / "nowhere"), str(tmp_path / "out")])
