@@ -147,12 +147,18 @@ def _by_step(rows: list[dict], key: str) -> dict[float, dict[int, float]]:
   return by_step
 
 
+def _complete(by_step: dict[float, dict[int, float]]) -> list[float]:
+  """The env steps of ``_by_step``'s result at which every seed has a value, in order."""
+  seeds = max((len(v) for v in by_step.values()), default=0)
+  return sorted(s for s, v in by_step.items() if len(v) == seeds)
+
+
 def curve(rows: list[dict], key: str) -> tuple[list[float], list[float], list[float]]:
   """``(env steps, mean, std)`` over seeds of ``key`` in metrics.csv rows, at every evaluation
   where every seed has a value."""
   by_step = _by_step(rows, key)
-  seeds = max((len(v) for v in by_step.values()), default=0)
-  steps = sorted(s for s, v in by_step.items() if len(v) == seeds)
+  steps = _complete(by_step)
+  seeds = len(by_step[steps[0]]) if steps else 0
   mean = [sum(by_step[s].values()) / seeds for s in steps]
   std = [math.sqrt(sum((x - m) ** 2 for x in by_step[s].values()) / seeds)
          for s, m in zip(steps, mean)]
@@ -191,14 +197,16 @@ def against(curves: dict[str, list[dict]], name: str, reference: list[dict],
   from scipy import stats
   rows = [f"| arm | metric | env steps | arm: mean ± std (seeds) | {name}: mean ± std (seeds) "
           "| Welch t | p |", "| --- | --- | ---: | ---: | ---: | ---: | ---: |"]
+  ref_by_key = {key: _by_step(reference, key) for key in metrics}
   for label, arm_rows in curves.items():
     for key in metrics:
-      steps = curve(arm_rows, key)[0]
+      by_step = _by_step(arm_rows, key)
+      steps = _complete(by_step)
       if not steps:
         continue
       step = steps[-1]
-      values = list(_by_step(arm_rows, key)[step].values())
-      ref_by_step = _by_step(reference, key)
+      values = list(by_step[step].values())
+      ref_by_step = ref_by_key[key]
       mean, std = paper_tables.mean_std(values)
       cells = [label, key, f"{step / 1e6:.2f} M", f"{mean:.3f} ± {std:.3f} ({len(values)})"]
       ref = list(ref_by_step.get(step, {}).values())
@@ -226,8 +234,7 @@ def read_reference(path: str, metrics: tuple[str, ...]) -> list[dict]:
     raise ValueError(f"{path}: not a run directory with metrics.csv, nor a metrics.csv file")
   with open(csv_path) as f:
     rows = list(csv.DictReader(f))
-  logged = [k for k in metrics if any(row.get(k) not in (None, "") for row in rows)]
-  if not logged:
+  if not any(_by_step(rows, key) for key in metrics):
     raise ValueError(f"{csv_path}: logs none of {list(metrics)} (train it with --eval-metrics)")
   return rows
 
@@ -255,6 +262,7 @@ def report(study_name: str, study: Study, directory: str, sweep_spec: dict,
     raise SystemExit(f"{directory}: no evaluated arm of {study_name} yet")
   fig, axes = plt.subplots(1, len(study.metrics), figsize=(5 * len(study.metrics), 3.6),
                            squeeze=False)
+  span = max((float(r["env_steps"]) for rows in curves.values() for r in rows), default=0.0)
   for ax, key in zip(axes[0], study.metrics):
     for name, rows in curves.items():
       steps, mean, std = curve(rows, key)
@@ -266,7 +274,6 @@ def report(study_name: str, study: Study, directory: str, sweep_spec: dict,
                       alpha=0.2)
     if reference is not None:
       steps, mean, std = curve(reference[1], key)
-      span = max((float(r["env_steps"]) for rows in curves.values() for r in rows), default=0.0)
       shown = [(s / 1e6, m, d) for s, m, d in zip(steps, mean, std) if s <= span]
       if shown:
         x, m, d = zip(*shown)
@@ -284,7 +291,7 @@ def report(study_name: str, study: Study, directory: str, sweep_spec: dict,
   plt.close(fig)
   table = "\n".join(compare({labels[name]: arm for name, arm in arms.items()}, study.metrics))
   if reference is not None:
-    rows = against({labels[name]: rows for name, rows in curves.items()}, reference[0],
+    rows = against({labels[name]: curves[name] for name in curves}, reference[0],
                    reference[1], study.metrics)
     table += (f"\n\nEach arm's last evaluation during training against {reference[0]} at the same "
               "env steps:\n\n" + "\n".join(rows))
@@ -322,15 +329,8 @@ def main():
   directory = os.path.join(args.out, f"{args.study}_{args.env}")
   config = None
   if args.config is not None:
-    try:
-      config = json.loads(args.config)
-    except json.JSONDecodeError as e:
-      parser.error(f"--config: not JSON ({e})")
-    if not isinstance(config, dict):
-      parser.error(f"--config: a JSON object of PPO settings, not {args.config}")
-    from blx import training
     try:  # a bad key or value is named now, not after the first arm has trained
-      training.ppo_defaults(args.env).replace(**config)
+      config = paper_tables.ppo_config(args.config, args.env)
     except ValueError as e:
       parser.error(f"--config: {e}")
   reference = None

@@ -179,6 +179,20 @@ def paper_steps(env: str) -> int:
   return 2 * ppo_defaults(env).num_timesteps
 
 
+def ppo_config(text: str, env: str) -> dict:
+  """The PPO settings a ``--config`` gives over the env's row: a JSON object whose keys and values
+  ``PPOConfig`` takes. A ValueError names what is wrong (with the valid keys), before anything
+  trains."""
+  try:
+    config = json.loads(text)
+  except json.JSONDecodeError as e:
+    raise ValueError(f"not JSON ({e})") from None
+  if not isinstance(config, dict):
+    raise ValueError(f"a JSON object of PPO settings, not {text}")
+  ppo_defaults(env).replace(**config)
+  return config
+
+
 def specs(seeds: int, edits: dict | None = None, config: dict | None = None,
           steps: int | None = None, options: dict | None = None, env: str = "ant",
           first_seed: int = 0) -> dict:
@@ -244,7 +258,12 @@ def main():
     select = lambda name, run_spec: run_spec.objective == args.objective
   args.out = args.out or f"sweeps/paper_{args.env}"
   edits = json.loads(args.env_edits) if args.env_edits else None
-  config = json.loads(args.config) if args.config else None
+  config = None
+  if args.config:
+    try:
+      config = ppo_config(args.config, args.env)
+    except ValueError as e:
+      parser.error(f"--config: {e}")
   options = json.loads(args.options) if args.options else None
   for family, spec in specs(args.seeds, edits, config, args.steps, options, args.env,
                               args.first_seed).items():

@@ -5,6 +5,7 @@ import csv
 import inspect
 import json
 import os
+import re
 
 import pytest
 
@@ -197,6 +198,5 @@ def test_bad_reference_or_config_is_refused_before_anything_trains(argv, message
   monkeypatch.setattr("sys.argv", ["ablations.py", "sn_diayn", "--out", str(tmp_path), *argv])
   with pytest.raises(SystemExit):
     ablations.main()
-  import re
   assert re.search(message, capsys.readouterr().err)
   assert not trained

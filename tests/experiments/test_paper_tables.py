@@ -3,6 +3,7 @@ verdicts that compare blx with them."""
 
 import json
 import math
+import re
 
 import pytest
 from scipy import stats
@@ -113,3 +114,19 @@ def test_a_single_seed_gets_its_row_without_a_test():
   assert "0.556 ± 0.000 (1)" in row and "n/a (1 seed)" in row and row.endswith("| **no** |")
   with pytest.raises(ValueError, match="at least 2"):
     paper_tables.welch([0.556], 1.218, 0.192)
+
+
+def test_a_bad_config_is_refused_with_the_valid_keys_before_anything_trains(monkeypatch, capsys,
+                                                                           tmp_path):
+  assert paper_tables.ppo_config('{"num_evals": 12}', "halfcheetah") == {"num_evals": 12}
+  trained = []
+  monkeypatch.setattr(sweep, "run_sweep", lambda *a, **k: trained.append(a))
+  for config, message in (('{"num_evalz": 3}', r"unknown key\(s\) \['num_evalz'\]; valid keys"),
+                          ("[1]", "a JSON object of PPO settings"),
+                          ("{num_evals: 3}", "not JSON")):
+    monkeypatch.setattr("sys.argv", ["paper_tables.py", "--objective", "diayn", "--config", config,
+                                     "--out", str(tmp_path)])
+    with pytest.raises(SystemExit):
+      paper_tables.main()
+    assert re.search(message, capsys.readouterr().err)
+  assert not trained
