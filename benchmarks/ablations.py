@@ -29,7 +29,9 @@ directories, ``curves.png`` (each metric against env steps, mean and std over se
 arm). ``--reference NAME=PATH`` adds another run trained with ``--eval-metrics`` (its directory or
 metrics.csv; e.g. a finished row trained with another setting): its curve is drawn over the arms'
 span, and each arm's last evaluation is tested against the reference's at the same env steps. So an
-arm run for a fraction of a row's steps is compared with the row where the row was.
+arm run for a fraction of a row's steps is compared with the row where the row was. Where the
+reference has its eval.json, each arm's final evaluation is also tested against it: so a study
+whose row has run before (``--arm`` the other values) is compared with that row.
 """
 
 from __future__ import annotations
@@ -102,8 +104,9 @@ STUDIES = {
                        "spectral norm makes cDIAYN's skills distinct"),
     "gp": Study("dmin", ("airl", "gail"), "gradient_penalty_weight", (0.0, 1.0, 10.0),
                 ("eval/energy_distance",), "gradient penalty does not help much; too much hurts"),
-    "skills": Study("mimax", ("diayn",), "num_skills", (8, 2, 4, 16), ("eval/mi", "eval/entropy"),
-                    "(no claim in the paper; MI is bounded by log K)"),
+    "skills": Study("mimax", ("diayn",), "num_skills", (8, 2, 4, 16),
+                    ("eval/mi", "eval/entropy", "eval/lgr"),
+                    "more skills raise the MI, which is bounded by ln K", paper=False),
     "run_reward": Study("mimax", ("diayn",), "env_reward_multiplier", (0.0, 1.0),
                         ("eval/mi", "eval/entropy", "eval/episode_env_reward"),
                         "with the run reward, skills are gaits that all run"),
@@ -226,9 +229,19 @@ def against(curves: dict[str, list[dict]], name: str, reference: list[dict],
   return rows
 
 
-def read_reference(path: str, metrics: tuple[str, ...]) -> list[dict]:
-  """The metrics.csv rows of ``path`` (a run directory or a metrics.csv file); refuses one that
-  logs none of ``metrics`` (a run trained without ``--eval-metrics``)."""
+@dataclasses.dataclass(frozen=True)
+class Reference:
+  """Another run the arms are compared with (``--reference``), e.g. a finished row."""
+
+  name: str
+  rows: list[dict]            # its metrics.csv: the evaluations during training
+  final: dict | None = None   # its eval.json (the paper's protocol after training), where it has one
+
+
+def read_reference(name: str, path: str, metrics: tuple[str, ...]) -> Reference:
+  """The run at ``path`` (a run directory or its metrics.csv) as a ``Reference``, with the
+  eval.json beside its metrics.csv where there is one; refuses one that logs none of ``metrics``
+  (a run trained without ``--eval-metrics``)."""
   csv_path = os.path.join(path, "metrics.csv") if os.path.isdir(path) else path
   if not os.path.isfile(csv_path):
     raise ValueError(f"{path}: not a run directory with metrics.csv, nor a metrics.csv file")
@@ -236,14 +249,20 @@ def read_reference(path: str, metrics: tuple[str, ...]) -> list[dict]:
     rows = list(csv.DictReader(f))
   if not any(_by_step(rows, key) for key in metrics):
     raise ValueError(f"{csv_path}: logs none of {list(metrics)} (train it with --eval-metrics)")
-  return rows
+  final = None
+  eval_path = os.path.join(os.path.dirname(csv_path), "eval.json")
+  if os.path.isfile(eval_path):
+    with open(eval_path) as f:
+      final = json.load(f)
+  return Reference(name, rows, final)
 
 
 def report(study_name: str, study: Study, directory: str, sweep_spec: dict,
-           reference: tuple[str, list[dict]] | None = None) -> str:
+           reference: Reference | None = None) -> str:
   """Draws ``curves.png`` and writes ``ablation.md`` for the arms of ``sweep_spec`` evaluated under
-  ``directory``. ``reference``: ``(name, metrics.csv rows)`` of another run (``read_reference``),
-  drawn over the arms' span of env steps and compared with each arm's last evaluation."""
+  ``directory``. ``reference``, another run (``read_reference``), is drawn over the arms' span of
+  env steps and compared with each arm's last evaluation during training; where it has its
+  eval.json, also each arm's final evaluation with its own."""
   import matplotlib
   matplotlib.use("Agg")
   import matplotlib.pyplot as plt
@@ -273,11 +292,11 @@ def report(study_name: str, study: Study, directory: str, sweep_spec: dict,
       ax.fill_between(x, [m - s for m, s in zip(mean, std)], [m + s for m, s in zip(mean, std)],
                       alpha=0.2)
     if reference is not None:
-      steps, mean, std = curve(reference[1], key)
+      steps, mean, std = curve(reference.rows, key)
       shown = [(s / 1e6, m, d) for s, m, d in zip(steps, mean, std) if s <= span]
       if shown:
         x, m, d = zip(*shown)
-        ax.plot(x, m, "k--", label=reference[0])
+        ax.plot(x, m, "k--", label=reference.name)
         ax.fill_between(x, [a - b for a, b in zip(m, d)], [a + b for a, b in zip(m, d)],
                         color="k", alpha=0.1)
     ax.set_xlabel("env steps per seed (millions)")
@@ -291,10 +310,15 @@ def report(study_name: str, study: Study, directory: str, sweep_spec: dict,
   plt.close(fig)
   table = "\n".join(compare({labels[name]: arm for name, arm in arms.items()}, study.metrics))
   if reference is not None:
-    rows = against({labels[name]: curves[name] for name in curves}, reference[0],
-                   reference[1], study.metrics)
-    table += (f"\n\nEach arm's last evaluation during training against {reference[0]} at the same "
-              "env steps:\n\n" + "\n".join(rows))
+    rows = against({labels[name]: curves[name] for name in curves}, reference.name,
+                   reference.rows, study.metrics)
+    table += (f"\n\nEach arm's last evaluation during training against {reference.name} at the "
+              "same env steps:\n\n" + "\n".join(rows))
+    if reference.final is not None:
+      final = {reference.name: reference.final, **{labels[name]: arm for name, arm in arms.items()}}
+      table += (f"\n\nThe final evaluations (eval.json), first {reference.name}'s (arms of "
+                "another objective are tested against their own first arm):\n\n"
+                + "\n".join(compare(final, study.metrics)))
   with open(os.path.join(directory, "ablation.md"), "w") as f:
     f.write(f"# {study_name}\n\n{study.claim_line[0].upper()}{study.claim_line[1:]}.\n\n{table}\n")
   return table
@@ -339,7 +363,7 @@ def main():
     if not (sep and name and path):
       parser.error(f"--reference {args.reference!r}: give NAME=PATH")
     try:
-      reference = (name, read_reference(path, study.metrics))
+      reference = read_reference(name, path, study.metrics)
     except ValueError as e:
       parser.error(f"--reference: {e}")
   try:

@@ -159,12 +159,15 @@ def test_against_tests_each_arms_last_evaluation_against_the_reference_at_the_sa
 def test_read_reference_takes_a_run_directory_or_its_csv_and_refuses_one_without_the_metrics(
     tmp_path):
   _write_metrics(tmp_path / "metrics.csv", {(0, 10): 0.5})
-  assert ablations.read_reference(str(tmp_path), ("eval/mi",))[0]["eval/mi"] == "0.5"
-  assert len(ablations.read_reference(str(tmp_path / "metrics.csv"), ("eval/mi",))) == 1
+  ref = ablations.read_reference("row", str(tmp_path), ("eval/mi",))
+  assert ref.name == "row" and ref.rows[0]["eval/mi"] == "0.5" and ref.final is None
+  (tmp_path / "eval.json").write_text(json.dumps(_arm("diayn", [1.0, 1.2])))
+  ref = ablations.read_reference("row", str(tmp_path / "metrics.csv"), ("eval/mi",))
+  assert len(ref.rows) == 1 and ref.final["per_seed"]["eval/mi"] == [1.0, 1.2]
   with pytest.raises(ValueError, match=r"logs none of \['eval/energy_distance'\].*--eval-metrics"):
-    ablations.read_reference(str(tmp_path), ("eval/energy_distance",))
+    ablations.read_reference("row", str(tmp_path), ("eval/energy_distance",))
   with pytest.raises(ValueError, match="not a run directory with metrics.csv"):
-    ablations.read_reference(str(tmp_path / "missing"), ("eval/mi",))
+    ablations.read_reference("row", str(tmp_path / "missing"), ("eval/mi",))
 
 
 def test_report_draws_the_reference_and_compares_the_arms_with_it(tmp_path):
@@ -178,11 +181,23 @@ def test_report_draws_the_reference_and_compares_the_arms_with_it(tmp_path):
                  {(0, 1000): 0.5, (1, 1000): 0.7, (0, 2000): 1.0, (1, 2000): 1.2})
   reference = [{"seed": s, "env_steps": step, "eval/mi": 0.1 * step / 1000 + 0.1 * s}
                for s in (0, 1) for step in (1000, 2000, 9000)]
-  table = ablations.report("step_diayn", study, str(tmp_path), spec, ("the row", reference))
+  table = ablations.report("step_diayn", study, str(tmp_path), spec,
+                           ablations.Reference("the row", reference))
   assert "against the row at the same env steps" in table
   assert ("| blx's step: 16 x 3.125 ms | eval/mi | 0.00 M | 1.100 ± 0.100 (2) "
           "| 0.250 ± 0.050 (2)") in table
+  assert "final evaluations" not in table  # a reference without its eval.json
   assert os.path.getsize(tmp_path / "curves.png") > 10_000
+  # With the reference's eval.json, each arm's final evaluation is tested against the reference's.
+  final = _arm("diayn", [0.2, 0.3, 0.4])
+  table = ablations.report("step_diayn", study, str(tmp_path), spec,
+                           ablations.Reference("the row", reference, final))
+  from scipy import stats
+  want = stats.ttest_ind([1.0, 1.2], [0.2, 0.3, 0.4], equal_var=False)
+  tail = table.split("The final evaluations")[1]
+  assert "| the row | eval/mi | 0.300 ± 0.082 (3) |  |  |" in tail
+  assert (f"| blx's step: 16 x 3.125 ms | eval/mi | 1.100 ± 0.100 (2) | {want.statistic:+.2f} "
+          f"| {want.pvalue:.3f} |") in tail
 
 
 @pytest.mark.parametrize("argv,message", [
