@@ -235,7 +235,7 @@ class Reference:
 
   name: str
   rows: list[dict]            # its metrics.csv: the evaluations during training
-  final: dict | None = None   # its eval.json (the paper's protocol after training), where it has one
+  final: dict | None = None   # its eval.json (the paper's protocol after training), if it has one
 
 
 def read_reference(name: str, path: str, metrics: tuple[str, ...]) -> Reference:
@@ -370,6 +370,11 @@ def main():
     sweep_spec = spec(study, args.env, args.seeds, args.steps, config)
   except ValueError as e:  # an env the study is not defined for
     parser.error(f"{args.study} --env {args.env}: {e}")
+  arm_names = [study.label(name, run_spec) for name, run_spec in sweep.expand(sweep_spec)]
+  if reference is not None and reference.name in arm_names:
+    # the tables would mistake the reference for the arm of that name
+    parser.error(f"--reference {reference.name!r}: an arm's name; give another (the arms: "
+                 f"{arm_names})")
   if not args.report:
     only = None
     if args.arm:

@@ -1,10 +1,10 @@
-"""Where every seed's skills take the agent (#15): one figure, a row per run directory (e.g. the arms
-of an ablation) and a column per seed, each panel the xy paths of the agent's root body under every
-skill. The run's own ``plots/paths.png`` shows seed 0 only, and a study's claim about skills ("SN
-makes cDIAYN's skills distinct") is about every seed.
+"""Where every seed's skills take the agent (#15): one figure, a row per run directory (e.g. the
+arms of an ablation) and a column per seed, each panel the xy paths of the agent's root body under
+every skill. The run's own ``plots/paths.png`` shows seed 0 only, and a study's claim about skills
+("SN makes cDIAYN's skills distinct") is about every seed.
 
     python benchmarks/seed_paths.py RUN_DIR [RUN_DIR ...] [--seeds 0,1] [--deterministic]
-                                    [--labels A,B] [--out FILE.png]
+                                    [--labels A,B] [--title TEXT] [--out FILE.png]
 
 Each run must be an MI-max run (skills: the K one-hots of a categorical prior, or 8 draws of a
 continuous prior, the same draws for every seed and run) with its checkpoint. Each panel draws
@@ -62,8 +62,9 @@ def seed_paths(run: runs.Run, positions: list[int], *, deterministic: bool,
 
 
 def reach(xy: np.ndarray) -> np.ndarray:
-  """How far each seed's skills carry the agent: the straight-line distance from an episode's first
-  recorded position to its last, averaged over skills and episodes, ``[S]`` from ``[S, L, M, T, 2]``."""
+  """How far each seed's skills carry the agent, ``[S]`` from ``xy [S, L, M, T, 2]``: the
+  straight-line distance from an episode's first recorded position to its last, averaged over
+  skills and episodes."""
   return np.linalg.norm(xy[..., -1, :] - xy[..., 0, :], axis=-1).mean((1, 2))
 
 

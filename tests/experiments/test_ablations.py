@@ -215,3 +215,16 @@ def test_bad_reference_or_config_is_refused_before_anything_trains(argv, message
     ablations.main()
   assert re.search(message, capsys.readouterr().err)
   assert not trained
+
+
+def test_a_reference_named_as_an_arm_is_refused_before_anything_trains(monkeypatch, capsys,
+                                                                        tmp_path):
+  _write_metrics(tmp_path / "metrics.csv", {(0, 10): 0.5})
+  trained = []
+  monkeypatch.setattr(sweep, "run_sweep", lambda *a, **k: trained.append(a))
+  monkeypatch.setattr("sys.argv", ["ablations.py", "step_diayn", "--env", "halfcheetah", "--out",
+                                   str(tmp_path), "--reference", f"8 x 6.25 ms={tmp_path}"])
+  with pytest.raises(SystemExit):
+    ablations.main()
+  assert "--reference '8 x 6.25 ms': an arm's name" in capsys.readouterr().err
+  assert not trained
