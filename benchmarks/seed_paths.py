@@ -9,10 +9,10 @@ every skill. The run's own ``plots/paths.png`` shows seed 0 only, and a study's 
 Each run must be an MI-max run (skills: the K one-hots of a categorical prior, or 8 draws of a
 continuous prior, the same draws for every seed and run) with its checkpoint. Each panel draws
 ``EPISODES`` episodes per skill, one colour per skill (the same colour means the same latent across
-panels), a circle at the start and a dot at the end; actions are sampled as in the paper's
-evaluation unless ``--deterministic``. A panel's title is its seed and its ``eval/mi`` from the
-run's ``eval.json``, where there is one. All panels share one scale, so a row of short paths is a
-run whose skills move little. Writes ``--out`` (default ``seed_paths.png`` in the first run
+panels), circles at the first recorded positions and dots at the last; actions are sampled as in
+the paper's evaluation unless ``--deterministic``. A panel's title is its seed and its ``eval/mi``
+from the run's ``eval.json``, where there is one. All panels share one scale, so a row of short
+paths is a run whose skills move little. Writes ``--out`` (default ``seed_paths.png`` in the first run
 directory) and beside it the same name ending in ``.json``: per run, its seeds, their MI and
 their reach (the straight-line distance an episode covers, in metres, averaged over skills and
 episodes); the reach is also printed per run.
@@ -102,7 +102,8 @@ def draw(rows: list[tuple[str, list[int], list[float | None], np.ndarray]], path
         for m in range(xy.shape[2]):
           ax.plot(xy[c, k, m, :, 0], xy[c, k, m, :, 1], color=colours[k], lw=0.7, alpha=0.8)
         ax.scatter(xy[c, k, :, -1, 0], xy[c, k, :, -1, 1], color=colours[k], s=5)
-      ax.scatter([0], [0], facecolors="none", edgecolors="k", s=14)
+      ax.scatter(xy[c, :, :, 0, 0].ravel(), xy[c, :, :, 0, 1].ravel(), facecolors="none",
+                 edgecolors="k", s=14)
       ax.set_xlim(centre[0] - half, centre[0] + half)
       ax.set_ylim(centre[1] - half, centre[1] + half)
       ax.set_aspect("equal")
@@ -115,7 +116,8 @@ def draw(rows: list[tuple[str, list[int], list[float | None], np.ndarray]], path
         ax.set_xlabel("x (m)", fontsize=7)
   fig.suptitle(title, fontsize=10)
   caption = (f"{body}'s xy over {EPISODES} episodes per skill, one colour per skill (the same "
-             "latent in every panel); circle: the start, dots: the ends. One scale for all panels.")
+             "latent in every panel); circles: the first positions, dots: the last. One scale "
+             "for all panels.")
   width = fig.get_size_inches()[0]
   fig.text(0.5, 0.005, textwrap.fill(caption, int(width * 17)), ha="center", va="bottom",
            fontsize=7, color="0.3")
