@@ -12,8 +12,8 @@ continuous prior, the same draws for every seed and run) with its checkpoint. Ea
 panels), circles at the first recorded positions and dots at the last; actions are sampled as in
 the paper's evaluation unless ``--deterministic``. A panel's title is its seed and its ``eval/mi``
 from the run's ``eval.json``, where there is one. All panels share one scale, so a row of short
-paths is a run whose skills move little. Writes ``--out`` (default ``seed_paths.png`` in the first run
-directory) and beside it the same name ending in ``.json``: per run, its seeds, their MI and
+paths is a run whose skills move little. Writes ``--out`` (default ``seed_paths.png`` in the first
+run directory) and beside it the same name ending in ``.json``: per run, its seeds, their MI and
 their reach (the straight-line distance an episode covers, in metres, averaged over skills and
 episodes); the reach is also printed per run.
 """
