@@ -308,14 +308,15 @@ def report(study_name: str, study: Study, directory: str, sweep_spec: dict,
   fig.tight_layout()
   fig.savefig(os.path.join(directory, "curves.png"), dpi=120)
   plt.close(fig)
-  table = "\n".join(compare({labels[name]: arm for name, arm in arms.items()}, study.metrics))
+  labelled = {labels[name]: arm for name, arm in arms.items()}
+  table = "\n".join(compare(labelled, study.metrics))
   if reference is not None:
     rows = against({labels[name]: curves[name] for name in curves}, reference.name,
                    reference.rows, study.metrics)
     table += (f"\n\nEach arm's last evaluation during training against {reference.name} at the "
               "same env steps:\n\n" + "\n".join(rows))
     if reference.final is not None:
-      final = {reference.name: reference.final, **{labels[name]: arm for name, arm in arms.items()}}
+      final = {reference.name: reference.final, **labelled}
       table += (f"\n\nThe final evaluations (eval.json), first {reference.name}'s (arms of "
                 "another objective are tested against their own first arm):\n\n"
                 + "\n".join(compare(final, study.metrics)))
