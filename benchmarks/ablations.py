@@ -3,7 +3,8 @@ row, trained with the row's protocol, compared by curves and by a Welch test aga
 
     python benchmarks/ablations.py STUDY [--env ant|humanoid|halfcheetah] [--seeds 10]
                                          [--out sweeps/ablations] [--steps N] [--arm VALUE]
-                                         [--config JSON] [--reference NAME=PATH]
+                                         [--objective NAME] [--config JSON]
+                                         [--reference NAME=PATH]
     python benchmarks/ablations.py STUDY --report    # only the curves and table of what has run
 
 Studies (``--list`` prints them):
@@ -22,8 +23,9 @@ Studies (``--list`` prints them):
 
 Each arm is a point of one ``blx sweep`` (``benchmarks/paper_tables.py`` gives the row's settings),
 trained with ``--eval-metrics`` so that MI, H(s) or the energy distance is logged at every
-evaluation. Points already evaluated are reused, so ``--arm`` lets one process per GPU train one
-arm and a last call (``--report``) draws them together. Writes ``OUT/STUDY_ENV/``: the sweep's run
+evaluation. Points already evaluated are reused, so ``--arm`` (and, in a study of several
+objectives, ``--objective``) lets one process per GPU train one arm and a last call
+(``--report``) draws them together. Writes ``OUT/STUDY_ENV/``: the sweep's run
 directories, ``curves.png`` (each metric against env steps, mean and std over seeds per arm) and
 ``ablation.md`` (each arm's final metrics, mean +- std over seeds, Welch's t-test against the first
 arm). ``--reference NAME=PATH`` adds another run trained with ``--eval-metrics`` (its directory or
@@ -229,6 +231,35 @@ def against(curves: dict[str, list[dict]], name: str, reference: list[dict],
   return rows
 
 
+def during(curves: dict[str, tuple[str, list[dict]]], metrics: tuple[str, ...]) -> list[str]:
+  """Markdown rows: per arm and metric, its evaluation during training at the last env steps at
+  which every arm has every seed evaluated, and Welch's t-test against the first arm of the same
+  objective: a study compared while an arm is unfinished. ``curves``: ``{arm label: (objective,
+  metrics.csv rows)}``."""
+  from scipy import stats
+  rows = ["| arm | metric | env steps | mean ± std (seeds) | Welch t vs first | p |",
+          "| --- | --- | ---: | ---: | ---: | ---: |"]
+  first: dict[str, str] = {}
+  for key in metrics:
+    by_arm = {label: _by_step(arm_rows, key) for label, (_, arm_rows) in curves.items()}
+    shared = set.intersection(*(set(_complete(b)) for b in by_arm.values())) if by_arm else set()
+    if not shared:
+      continue
+    step = max(shared)
+    for label, (objective, _) in curves.items():
+      values = list(by_arm[label][step].values())
+      reference = first.setdefault(objective, label)
+      mean, std = paper_tables.mean_std(values)
+      t, p = "", ""
+      ref = list(by_arm[reference][step].values())
+      if label != reference and len(values) > 1 and len(ref) > 1:
+        test = stats.ttest_ind(values, ref, equal_var=False)
+        t, p = f"{test.statistic:+.2f}", f"{test.pvalue:.3f}"
+      rows.append(f"| {label} | {key} | {step / 1e6:.2f} M | {mean:.3f} ± {std:.3f} "
+                  f"({len(values)}) | {t} | {p} |")
+  return rows
+
+
 @dataclasses.dataclass(frozen=True)
 class Reference:
   """Another run the arms are compared with (``--reference``), e.g. a finished row."""
@@ -259,24 +290,30 @@ def read_reference(name: str, path: str, metrics: tuple[str, ...]) -> Reference:
 
 def report(study_name: str, study: Study, directory: str, sweep_spec: dict,
            reference: Reference | None = None) -> str:
-  """Draws ``curves.png`` and writes ``ablation.md`` for the arms of ``sweep_spec`` evaluated under
-  ``directory``. ``reference``, another run (``read_reference``), is drawn over the arms' span of
+  """Draws ``curves.png`` and writes ``ablation.md`` for the arms of ``sweep_spec`` under
+  ``directory``: those evaluated, and those still training (a metrics.csv but no eval.json), drawn
+  as unfinished and compared with the others during training, at the last env steps all of them
+  reached. ``reference``, another run (``read_reference``), is drawn over the arms' span of
   env steps and compared with each arm's last evaluation during training; where it has its
   eval.json, also each arm's final evaluation with its own."""
   import matplotlib
   matplotlib.use("Agg")
   import matplotlib.pyplot as plt
   from blx.experiments import sweep
-  arms, curves, labels = {}, {}, {}
+  arms, curves, labels, objectives = {}, {}, {}, {}
   for name, run_spec in sweep.expand(sweep_spec):
     path = os.path.join(directory, name)
-    if not os.path.exists(os.path.join(path, "eval.json")):
+    if not os.path.exists(os.path.join(path, "metrics.csv")):
       continue
     labels[name] = study.label(name, run_spec)
-    with open(os.path.join(path, "eval.json")) as f:
-      arms[name] = json.load(f)
+    objectives[name] = run_spec.objective
     with open(os.path.join(path, "metrics.csv")) as f:
       curves[name] = list(csv.DictReader(f))
+    if os.path.exists(os.path.join(path, "eval.json")):
+      with open(os.path.join(path, "eval.json")) as f:
+        arms[name] = json.load(f)
+    else:  # still training (or stopped): drawn and compared during training, not in the finals
+      labels[name] += " (unfinished)"
   if not arms:
     raise SystemExit(f"{directory}: no evaluated arm of {study_name} yet")
   fig, axes = plt.subplots(1, len(study.metrics), figsize=(5 * len(study.metrics), 3.6),
@@ -304,12 +341,17 @@ def report(study_name: str, study: Study, directory: str, sweep_spec: dict,
     ax.grid(alpha=0.3)
   axes[0][0].legend(fontsize=7)
   title = f"{study_name}; {study.claim_line} (mean ± std over seeds)"
-  fig.suptitle(textwrap.fill(title, 80 * len(study.metrics)), fontsize=9)
+  fig.suptitle(textwrap.fill(title, 60 * len(study.metrics)), fontsize=9)
   fig.tight_layout()
   fig.savefig(os.path.join(directory, "curves.png"), dpi=120)
   plt.close(fig)
   labelled = {labels[name]: arm for name, arm in arms.items()}
   table = "\n".join(compare(labelled, study.metrics))
+  if len(arms) < len(curves):
+    table += ("\n\nAn arm is unfinished: every arm's evaluation during training at the last env "
+              "steps all of them reached:\n\n" + "\n".join(
+                  during({labels[n]: (objectives[n], rows) for n, rows in curves.items()},
+                         study.metrics)))
   if reference is not None:
     rows = against({labels[name]: curves[name] for name in curves}, reference.name,
                    reference.rows, study.metrics)
@@ -335,6 +377,8 @@ def main():
                       help="env steps per seed (default the paper's: the env's PPO row x 2)")
   parser.add_argument("--arm", action="append", default=None, metavar="VALUE",
                       help="train only the arms with this value (JSON, e.g. false or 10.0)")
+  parser.add_argument("--objective", action="append", default=None, metavar="NAME",
+                      help="train only the arms of this objective (e.g. airl in the gp study)")
   parser.add_argument("--config", default=None, metavar="JSON",
                       help="PPO settings over the row's for every arm, e.g. '{\"num_evals\": 12}'")
   parser.add_argument("--reference", default=None, metavar="NAME=PATH",
@@ -387,8 +431,13 @@ def main():
       bad = [v for v in only if v not in study.values]
       if bad:
         parser.error(f"--arm {bad}: {args.study}'s values are {json.dumps(list(study.values))}")
-    select = None if only is None else (
-        lambda name, run_spec: study.value(run_spec) in only)
+    objectives = args.objective or list(study.objectives)
+    bad = [o for o in objectives if o not in study.objectives]
+    if bad:
+      parser.error(f"--objective {bad}: {args.study}'s objectives are {list(study.objectives)}")
+    select = None if only is None and args.objective is None else (
+        lambda name, run_spec: ((only is None or study.value(run_spec) in only)
+                                and run_spec.objective in objectives))
     sweep.run_sweep(sweep_spec, directory, select=select, eval_metrics=True)
   print(report(args.study, study, directory, sweep_spec, reference))
 

@@ -3,14 +3,15 @@ engineering figures (DIAYN on xy velocity against DIAYN_FULL on the whole observ
 first 30 dimensions), #15.
 
     python benchmarks/feature_dims.py RUN_DIR [RUN_DIR ...] [--dims 30] [--seeds 0,1,2]
-                                      [--out feature_dims.png]
+                                      [--labels A,B] [--out feature_dims.png]
 
 Each run's policy is rolled out as the paper's MI evaluation does (every skill, 10 episodes each,
 sampled actions, the last 500 steps), for every seed of the run, or for the positions in its seeds
 that ``--seeds`` names. Each dimension's particle MI and H(s) (Algorithm 1, 1000 bins over
 +-obs_scale of the run's objective) are averaged over those seeds. One figure with two panels (MI
 per dimension, H(s) per dimension; each dimension named from the env's layout), one bar per run and
-dimension, and a JSON beside it with the numbers and the seeds.
+dimension (``--labels`` names the runs in the legend; default each run's objective), and a JSON
+beside it with the numbers and the seeds.
 """
 
 from __future__ import annotations
@@ -78,14 +79,14 @@ def plot(results: dict[str, dict], dims, path: str, *, labels: list[str] | None 
              yerr=r[key].std(0) if r[key].shape[0] > 1 else None, label=run, capsize=1.5)
     ax.set_ylabel(name)
     ax.grid(axis="y", alpha=0.3)
-  axes[0].legend(fontsize=8)
+  axes[0].legend(fontsize=10)
   if labels is None:
     axes[1].set_xticks(x, [str(d) for d in dims], fontsize=7)
   else:
     axes[1].set_xticks(x, labels, fontsize=7, rotation=90)
   axes[1].set_xlabel("observation dimension")
   axes[0].set_title((f"{title}: " if title else "")
-                    + "MI and H(s) per observation dimension (mean ± std over seeds)", fontsize=9)
+                    + "MI and H(s) per observation dimension (mean ± std over seeds)", fontsize=12)
   fig.tight_layout()
   fig.savefig(path, dpi=120)
   plt.close(fig)
@@ -111,12 +112,19 @@ def main(argv: list[str] | None = None):
   parser.add_argument("--dims", type=int, default=30, help="the first N observation dimensions")
   parser.add_argument("--seeds", default=None,
                       help="comma-separated positions in each run's seeds (default all)")
+  parser.add_argument("--labels", default=None,
+                      help="comma-separated legend entries, one per run (default the objectives)")
   parser.add_argument("--out", default="feature_dims.png")
   args = parser.parse_args(argv)
   from blx import envs
   from blx.experiments import plots, runs
   if len(set(args.runs)) < len(args.runs):
     parser.error(f"a run directory is given twice: {args.runs}")
+  names = None
+  if args.labels is not None:
+    names = [name.strip() for name in args.labels.split(",")]
+    if len(names) != len(args.runs) or len(set(names)) < len(names) or not all(names):
+      parser.error(f"--labels {args.labels!r}: give {len(args.runs)} distinct names, one per run")
   specs = {directory: runs.read_spec(directory) for directory in args.runs}
   picked = {}
   for directory, spec in specs.items():
@@ -130,12 +138,14 @@ def main(argv: list[str] | None = None):
     parser.error(f"--dims {args.dims}: the observation has {size} dimensions")
   dims = list(range(args.dims))
   results, seeds = {}, {}
-  for directory, label in run_labels(specs).items():
+  legend = run_labels(specs) if names is None else dict(zip(args.runs, names))
+  for directory, label in legend.items():
     results[label] = scan_run(directory, dims, positions=picked[directory])
     seeds[label] = [specs[directory].seeds[i] for i in picked[directory]]
   counts = sorted({len(s) for s in seeds.values()})
   plot(results, dims, args.out, labels=plots.feature_labels(env, dims),
-       title=f"{specs[args.runs[0]].env}, {'/'.join(map(str, counts))} seeds")
+       title=f"{specs[args.runs[0]].env}, {'/'.join(map(str, counts))} "
+             f"seed{'s' if counts != [1] else ''}")
   common.write_json(os.path.splitext(args.out)[0] + ".json",
                     {k: {**{m: v.tolist() for m, v in r.items()}, "seeds": seeds[k]}
                      for k, r in results.items()})

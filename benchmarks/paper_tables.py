@@ -179,16 +179,23 @@ def paper_steps(env: str) -> int:
   return 2 * ppo_defaults(env).num_timesteps
 
 
+def json_object(text: str, what: str) -> dict:
+  """``text`` parsed as a JSON object; a ValueError says what it is instead (``what`` names the
+  object wanted, e.g. "PPO settings")."""
+  try:
+    value = json.loads(text)
+  except json.JSONDecodeError as e:
+    raise ValueError(f"not JSON ({e})") from None
+  if not isinstance(value, dict):
+    raise ValueError(f"a JSON object of {what}, not {text}")
+  return value
+
+
 def ppo_config(text: str, env: str) -> dict:
   """The PPO settings a ``--config`` gives over the env's row: a JSON object whose keys and values
   ``PPOConfig`` takes. A ValueError names what is wrong (with the valid keys), before anything
   trains."""
-  try:
-    config = json.loads(text)
-  except json.JSONDecodeError as e:
-    raise ValueError(f"not JSON ({e})") from None
-  if not isinstance(config, dict):
-    raise ValueError(f"a JSON object of PPO settings, not {text}")
+  config = json_object(text, "PPO settings")
   ppo_defaults(env).replace(**config)
   return config
 
@@ -257,14 +264,19 @@ def main():
   elif args.objective:
     select = lambda name, run_spec: run_spec.objective == args.objective
   args.out = args.out or f"sweeps/paper_{args.env}"
-  edits = json.loads(args.env_edits) if args.env_edits else None
-  config = None
-  if args.config:
-    try:
-      config = ppo_config(args.config, args.env)
-    except ValueError as e:
-      parser.error(f"--config: {e}")
-  options = json.loads(args.options) if args.options else None
+  parsed = {}  # each flag's JSON is checked before anything trains
+  for flag, text, parse in (
+      ("--env-edits", args.env_edits,
+       lambda t: json_object(t, 'env edits (e.g. {"global_options.substeps": 8})')),
+      ("--config", args.config, lambda t: ppo_config(t, args.env)),
+      ("--options", args.options,
+       lambda t: json_object(t, 'objective options (e.g. {"spectral_norm": false})'))):
+    if text:
+      try:
+        parsed[flag] = parse(text)
+      except ValueError as e:
+        parser.error(f"{flag}: {e}")
+  edits, config, options = (parsed.get(f) for f in ("--env-edits", "--config", "--options"))
   for family, spec in specs(args.seeds, edits, config, args.steps, options, args.env,
                               args.first_seed).items():
     if args.only and family != args.only:

@@ -228,3 +228,57 @@ def test_a_reference_named_as_an_arm_is_refused_before_anything_trains(monkeypat
     ablations.main()
   assert "--reference '8 x 6.25 ms': an arm's name" in capsys.readouterr().err
   assert not trained
+
+
+def test_objective_and_arm_pick_the_points_this_call_trains(monkeypatch, tmp_path):
+  calls = []
+  monkeypatch.setattr(sweep, "run_sweep", lambda spec, out, **k: calls.append((spec, k)))
+  monkeypatch.setattr(ablations, "report", lambda *a, **k: "")
+  monkeypatch.setattr("sys.argv", ["ablations.py", "gp", "--out", str(tmp_path), "--objective",
+                                   "airl", "--arm", "0.0", "--arm", "10.0"])
+  ablations.main()
+  (spec, kwargs), = calls
+  picked = [name for name, run_spec in sweep.expand(spec) if kwargs["select"](name, run_spec)]
+  study = ablations.STUDIES["gp"]
+  assert sorted((r.objective, study.value(r)) for n, r in sweep.expand(spec) if n in picked) == [
+      ("airl", 0.0), ("airl", 10.0)]
+  assert len(list(sweep.expand(spec))) == 6  # the other four points stay untrained
+
+
+def test_an_objective_outside_the_study_is_refused_before_anything_trains(monkeypatch, capsys,
+                                                                           tmp_path):
+  trained = []
+  monkeypatch.setattr(sweep, "run_sweep", lambda *a, **k: trained.append(a))
+  monkeypatch.setattr("sys.argv", ["ablations.py", "gp", "--out", str(tmp_path), "--objective",
+                                   "gail2"])
+  with pytest.raises(SystemExit):
+    ablations.main()
+  assert "--objective ['gail2']: gp's objectives are ['airl', 'gail']" in capsys.readouterr().err
+  assert not trained
+
+
+def test_an_unfinished_arm_is_drawn_and_compared_at_the_last_steps_every_arm_reached(tmp_path):
+  study = ablations.STUDIES["gp"]
+  spec = ablations.spec(study, "ant", 2)
+  points = dict((study.value(r), name) for name, r in sweep.expand(spec) if r.objective == "airl")
+  done, open_ = tmp_path / points[0.0], tmp_path / points[10.0]
+  done.mkdir(), open_.mkdir()
+  key, m = "eval/energy_distance", 1e6
+  (done / "eval.json").write_text(json.dumps(
+      {"objective": "airl", "per_seed": {key: [1.9, 2.1]}}))
+  # The finished arm ran to 30 M; the unfinished one stopped after 20 M, so they meet at 20 M.
+  _write_metrics(done / "metrics.csv", {(0, 10 * m): 2.5, (1, 10 * m): 2.7, (0, 20 * m): 1.8,
+                                        (1, 20 * m): 2.0, (0, 30 * m): 9.0, (1, 30 * m): 9.0}, key)
+  _write_metrics(open_ / "metrics.csv", {(0, 10 * m): 2.8, (1, 10 * m): 2.8, (0, 20 * m): 2.7,
+                                         (1, 20 * m): 2.9}, key)
+  table = ablations.report("gp", study, str(tmp_path), spec)
+  finals, during = table.split("An arm is unfinished")
+  assert "(unfinished)" not in finals  # no eval.json: not among the final evaluations
+  from scipy import stats
+  want = stats.ttest_ind([2.7, 2.9], [1.8, 2.0], equal_var=False)
+  rows = [r for r in during.splitlines() if r.startswith("| objective=airl")]
+  assert [[c.strip() for c in r.split("|")[3:7]] for r in rows] == [
+      ["20.00 M", "1.900 ± 0.100 (2)", "", ""],
+      ["20.00 M", "2.800 ± 0.100 (2)", f"{want.statistic:+.2f}", f"{want.pvalue:.3f}"]]
+  assert "(unfinished)" in rows[1] and "(unfinished)" not in rows[0]
+  assert os.path.getsize(tmp_path / "curves.png") > 10_000

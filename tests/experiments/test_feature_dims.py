@@ -1,5 +1,6 @@
 """benchmarks/feature_dims.py: MI and H(s) per observation dimension of a policy."""
 
+import json
 import math
 import pathlib
 from types import SimpleNamespace
@@ -78,3 +79,30 @@ def test_legend_entries_stay_apart_when_two_runs_share_an_objective():
                                   "sweeps/b/objective=diayn": spec}) == {
       "sweeps/a/objective=diayn": "diayn (sweeps/a/objective=diayn)",
       "sweeps/b/objective=diayn": "diayn (sweeps/b/objective=diayn)"}
+
+
+def test_labels_name_the_runs_in_the_figure_and_its_json(monkeypatch, tmp_path):
+  env = make_env("point")
+  monkeypatch.setattr("blx.experiments.runs.read_spec",
+                      lambda directory: SimpleNamespace(seeds=(0,), objective="diayn",
+                                                        env="point"))
+  monkeypatch.setattr("blx.experiments.runs.build", lambda spec: (env, None, None))
+  mi = {"runs/a": 0.5, "runs/b": 0.1}
+  monkeypatch.setattr(feature_dims, "scan_run", lambda directory, dims, positions: {
+      "mi": np.full((1, len(dims)), mi[directory]), "entropy": np.ones((1, len(dims)))})
+  out = tmp_path / "dims.png"
+  feature_dims.main(["runs/a", "runs/b", "--dims", "2", "--labels", "xy velocity,whole obs",
+                     "--out", str(out)])
+  saved = json.loads(out.with_suffix(".json").read_text())
+  assert list(saved) == ["xy velocity", "whole obs"]
+  assert saved["xy velocity"]["mi"] == [[0.5, 0.5]] and saved["whole obs"]["mi"] == [[0.1, 0.1]]
+  assert out.stat().st_size > 10_000
+
+
+@pytest.mark.parametrize("labels", ["only one", "a,a", "a,"])
+def test_labels_must_name_each_run_once(labels, monkeypatch, capsys):
+  monkeypatch.setattr("blx.experiments.runs.read_spec",
+                      lambda directory: SimpleNamespace(seeds=(0,), objective="diayn"))
+  with pytest.raises(SystemExit):
+    feature_dims.main(["runs/a", "runs/b", "--labels", labels])
+  assert "give 2 distinct names, one per run" in capsys.readouterr().err

@@ -130,3 +130,21 @@ def test_a_bad_config_is_refused_with_the_valid_keys_before_anything_trains(monk
       paper_tables.main()
     assert re.search(message, capsys.readouterr().err)
   assert not trained
+
+
+@pytest.mark.parametrize("flag,text,message", [
+    ("--env-edits", "{global_options.substeps: 8}", "--env-edits: not JSON"),
+    ("--env-edits", "[8]", "--env-edits: a JSON object of env edits"),
+    ("--options", '"spectral_norm"', "--options: a JSON object of objective options"),
+    ("--options", "{spectral_norm: false}", "--options: not JSON"),
+])
+def test_bad_env_edits_or_options_are_named_before_anything_trains(flag, text, message,
+                                                                   monkeypatch, capsys, tmp_path):
+  trained = []
+  monkeypatch.setattr(sweep, "run_sweep", lambda *a, **k: trained.append(a))
+  monkeypatch.setattr("sys.argv", ["paper_tables.py", "--objective", "diayn", flag, text,
+                                   "--out", str(tmp_path)])
+  with pytest.raises(SystemExit):
+    paper_tables.main()
+  assert message in capsys.readouterr().err
+  assert not trained
