@@ -32,7 +32,7 @@ import numpy as np
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import common  # noqa: E402
 
-from blx import envs, metrics  # noqa: E402
+from blx import metrics  # noqa: E402
 from blx.experiments import plots, runs  # noqa: E402
 from blx.objectives.specs import MimaxSpec  # noqa: E402
 
@@ -40,13 +40,7 @@ EPISODES = 3
 CONTINUOUS_SKILLS = 8  # draws of a continuous prior, as the run's own skills plot
 
 
-def root_xy(state, action, next_state) -> jax.Array:
-  """What a panel draws: the first body's (the agent's root) xy after each step, ``[N, 2]``."""
-  return next_state.data.xpos[:, 1, :2]
-
-
-def seed_paths(run: runs.Run, positions: list[int], *, deterministic: bool,
-               record=root_xy) -> np.ndarray:
+def seed_paths(run: runs.Run, positions: list[int], *, deterministic: bool) -> np.ndarray:
   """The root body's xy over each episode, ``[S, L, M, T, 2]`` for the seeds at ``positions``:
   ``L`` skills, ``EPISODES`` episodes each. Every seed draws the same latents."""
   z_key, roll_key = jax.random.split(jax.random.PRNGKey(0))
@@ -56,7 +50,8 @@ def seed_paths(run: runs.Run, positions: list[int], *, deterministic: bool,
 
   def one(p, k):
     return metrics.rollout(run.env, run.policy, p, latents, k, episodes_per_latent=EPISODES,
-                           deterministic=deterministic, record=record)
+                           deterministic=deterministic,
+                           record=lambda state, action, next_state: plots.root_xy(next_state))
 
   return np.asarray(jax.jit(jax.vmap(one))(params, keys))
 
@@ -98,12 +93,7 @@ def draw(rows: list[tuple[str, list[int], list[float | None], np.ndarray]], path
       if c >= len(seeds):
         ax.axis("off")
         continue
-      for k in range(xy.shape[1]):
-        for m in range(xy.shape[2]):
-          ax.plot(xy[c, k, m, :, 0], xy[c, k, m, :, 1], color=colours[k], lw=0.7, alpha=0.8)
-        ax.scatter(xy[c, k, :, -1, 0], xy[c, k, :, -1, 1], color=colours[k], s=5)
-      ax.scatter(xy[c, :, :, 0, 0].ravel(), xy[c, :, :, 0, 1].ravel(), facecolors="none",
-                 edgecolors="k", s=14)
+      plots.draw_paths(ax, xy[c], colours, width=0.7, end_size=5, start_size=14)
       ax.set_xlim(centre[0] - half, centre[0] + half)
       ax.set_ylim(centre[1] - half, centre[1] + half)
       ax.set_aspect("equal")
@@ -163,7 +153,7 @@ def main(argv=None) -> int:
     except ValueError as e:
       parser.error(f"{directory}: {e}")
     seeds = [run.spec.seeds[p] for p in positions]
-    bodies.add(envs.unwrap(run.env).mj_model.body(1).name)
+    bodies.add(plots.root_body(run.env))
     xy = seed_paths(run, positions, deterministic=args.deterministic)
     rows.append((label, seeds, seed_mis(directory, seeds), xy))
     far = reach(xy)

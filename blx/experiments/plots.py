@@ -12,7 +12,8 @@ import numpy as np
 
 from blx import envs, metrics
 
-__all__ = ["training_curves", "skills", "paths", "density", "discriminator", "write_all"]
+__all__ = ["training_curves", "skills", "paths", "draw_paths", "root_body", "root_xy", "density",
+           "discriminator", "write_all"]
 
 CURVE_PATTERNS = (r"^eval/episode_reward$", r"^eval/episode_score$", r"^eval/mi$",
                   r"^eval/entropy$", r"^eval/lgr$", r"^eval/energy_distance$", r"^eval/mode_share/\d+$",
@@ -167,20 +168,38 @@ def skills(states: np.ndarray, path: str, *, labels: list[str], scale: float,
   plt.close(fig)
 
 
+def root_body(env) -> str:
+  """The name of the env's first body: the agent's root (its torso), whose paths ``paths`` draws."""
+  return envs.unwrap(env).mj_model.body(1).name
+
+
+def root_xy(next_state) -> jax.Array:
+  """The root body's (``root_body``) xy position in each of a batch of states, ``[N, 2]``: what a
+  rollout records for ``paths``."""
+  return next_state.data.xpos[:, 1, :2]
+
+
+def draw_paths(ax, xy: np.ndarray, colours, *, width: float = 1.0, end_size: float = 14,
+               start_size: float = 30, legend: bool = False) -> None:
+  """One panel of skill paths into ``ax``: ``xy [L, M, T, 2]``, each of the ``M`` episodes of skill
+  ``k`` a line in ``colours[k]`` with a dot at its last position, and a circle at every episode's
+  first position. ``legend`` labels the skills and the circles."""
+  for k in range(xy.shape[0]):
+    for m in range(xy.shape[1]):
+      ax.plot(xy[k, m, :, 0], xy[k, m, :, 1], color=colours[k], lw=width, alpha=0.75,
+              label=f"skill {k}" if legend and m == 0 else None)
+    ax.scatter(xy[k, :, -1, 0], xy[k, :, -1, 1], color=colours[k], s=end_size)
+  ax.scatter(xy[:, :, 0, 0].ravel(), xy[:, :, 0, 1].ravel(), facecolors="none", edgecolors="k",
+             s=start_size, label="start" if legend else None)
+
+
 def paths(xy: np.ndarray, path: str, *, body: str, title: str = "") -> None:
   """Where each skill takes the agent: the xy position of ``body`` over each episode, ``xy
   [L, M, T, 2]``, one colour per skill, a circle at the start and a dot at the end."""
   plt = _pyplot()
   num = xy.shape[0]
-  colours = skill_colours(num)
   fig, ax = plt.subplots(figsize=(4.8, 4.4))
-  for k in range(num):
-    for m in range(xy.shape[1]):
-      ax.plot(xy[k, m, :, 0], xy[k, m, :, 1], color=colours[k], lw=1, alpha=0.7,
-              label=f"skill {k}" if m == 0 else None)
-      ax.scatter(xy[k, m, -1:, 0], xy[k, m, -1:, 1], color=colours[k], s=14)
-  ax.scatter(xy[:, :, 0, 0].ravel(), xy[:, :, 0, 1].ravel(), facecolors="none", edgecolors="k",
-             s=30, label="start")
+  draw_paths(ax, xy, skill_colours(num), legend=num <= 12)
   ax.set_xlabel(f"{body} x position (m)")
   ax.set_ylabel(f"{body} y position (m)")
   ax.set_aspect("equal", adjustable="datalim")
@@ -294,16 +313,15 @@ def write_all(run, history: list[dict], *, seed_index: int = 0, key_seed: int = 
   if plot == "skills":
     indices = np.asarray(metrics.eval_indices(run.objective))
     latents = metrics.latents_for_evaluation(run.objective, key, 8)
-    body = envs.unwrap(run.env).mj_model.body(1).name  # the first body: the agent's root
     states, xy = jax.jit(lambda p, z, k: metrics.rollout(
         run.env, run.policy, p, z, k, episodes_per_latent=3,
-        record=lambda s, a, n: (n.obs, n.data.xpos[:, 1, :2])))(params, latents, key)
+        record=lambda s, a, n: (n.obs, root_xy(n))))(params, latents, key)
     path = os.path.join(out_dir, "skills.png")
     skills(np.asarray(states[..., indices]), path, labels=feature_labels(run.env, indices),
            scale=spec.obs_scale, title=name)
     written.append(path)
     path = os.path.join(out_dir, "paths.png")
-    paths(np.asarray(xy), path, body=body, title=name)
+    paths(np.asarray(xy), path, body=root_body(run.env), title=name)
     written.append(path)
   elif plot == "density":
     indices = np.asarray(spec.obs_indices)

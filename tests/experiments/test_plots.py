@@ -89,3 +89,27 @@ def test_skills_get_clearly_distinct_colours_and_paths_are_drawn(tmp_path):
   path = tmp_path / "paths.png"
   plots.paths(xy, str(path), body="agent1/root", title="diayn on point")
   assert path.stat().st_size > 0
+
+
+def test_draw_paths_draws_each_episode_in_its_skills_colour_with_its_ends_and_starts():
+  import matplotlib
+  matplotlib.use("Agg")
+  import matplotlib.pyplot as plt
+  import numpy as np
+  xy = np.random.default_rng(0).normal(size=(3, 2, 5, 2))  # 3 skills, 2 episodes, 5 steps
+  colours = plots.skill_colours(3)
+  fig, ax = plt.subplots()
+  plots.draw_paths(ax, xy, colours, legend=True)
+  lines = ax.get_lines()
+  assert len(lines) == 6
+  for i, line in enumerate(lines):  # skill k's episodes come k-th, in its colour
+    k, m = divmod(i, 2)
+    np.testing.assert_allclose(line.get_xydata(), xy[k, m])
+    assert matplotlib.colors.same_color(line.get_color(), colours[k])
+  *ends, starts = ax.collections
+  for k, dots in enumerate(ends):
+    np.testing.assert_allclose(dots.get_offsets(), xy[k, :, -1])
+  np.testing.assert_allclose(starts.get_offsets(), xy[:, :, 0].reshape(-1, 2))
+  assert [t.get_text() for t in ax.legend().get_texts()] == ["skill 0", "skill 1", "skill 2",
+                                                             "start"]
+  plt.close(fig)

@@ -98,9 +98,7 @@ def test_the_command_draws_every_run_and_refuses_what_it_cannot(tmp_path, monkey
                          objective=objectives.gail(obs_indices=(0,)))
   by_dir = {a.directory: a, b.directory: b, "g": gail}
   monkeypatch.setattr(seed_paths.runs, "load_run", lambda d: by_dir[d])
-  monkeypatch.setattr(seed_paths.envs, "unwrap",
-                      lambda env: SimpleNamespace(mj_model=SimpleNamespace(
-                          body=lambda i: SimpleNamespace(name="root"))))
+  monkeypatch.setattr(seed_paths.plots, "root_body", lambda env: "root")
   drawn = []
   monkeypatch.setattr(seed_paths, "draw", lambda rows, path, **kw: drawn.append((rows, path)))
   assert seed_paths.main([a.directory, b.directory, "--labels", "fast,even", "--seeds", "1"]) == 0
