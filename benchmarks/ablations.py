@@ -170,6 +170,11 @@ def curve(rows: list[dict], key: str) -> tuple[list[float], list[float], list[fl
   return steps, mean, std
 
 
+def p_text(p: float) -> str:
+  """A p-value as the tables print it: three decimals, or "< 0.001" below that."""
+  return "< 0.001" if p < 0.001 else f"{p:.3f}"
+
+
 def compare(arms: dict[str, dict], metrics: tuple[str, ...]) -> list[str]:
   """Markdown rows: per arm and metric, mean +- std over seeds, and Welch's t-test against the
   first arm of the same objective. ``arms``: ``{name: eval.json}``."""
@@ -189,7 +194,7 @@ def compare(arms: dict[str, dict], metrics: tuple[str, ...]) -> list[str]:
       t, p = "", ""
       if name != reference and ref and n > 1 and len(ref) > 1:
         test = stats.ttest_ind(values, ref, equal_var=False)
-        t, p = f"{test.statistic:+.2f}", f"{test.pvalue:.3f}"
+        t, p = f"{test.statistic:+.2f}", p_text(test.pvalue)
       rows.append(f"| {name} | {key} | {mean:.3f} ± {std:.3f} ({n}) | {t} | {p} |")
   return rows
 
@@ -224,7 +229,7 @@ def against(curves: dict[str, list[dict]], name: str, reference: list[dict],
         cells.append(f"{ref_mean:.3f} ± {ref_std:.3f} ({len(ref)})")
         if len(values) > 1 and len(ref) > 1:
           test = stats.ttest_ind(values, ref, equal_var=False)
-          cells += [f"{test.statistic:+.2f}", f"{test.pvalue:.3f}"]
+          cells += [f"{test.statistic:+.2f}", p_text(test.pvalue)]
         else:
           cells += ["", ""]
       rows.append("| " + " | ".join(cells) + " |")
@@ -254,7 +259,7 @@ def during(curves: dict[str, tuple[str, list[dict]]], metrics: tuple[str, ...]) 
       ref = list(by_arm[reference][step].values())
       if label != reference and len(values) > 1 and len(ref) > 1:
         test = stats.ttest_ind(values, ref, equal_var=False)
-        t, p = f"{test.statistic:+.2f}", f"{test.pvalue:.3f}"
+        t, p = f"{test.statistic:+.2f}", p_text(test.pvalue)
       rows.append(f"| {label} | {key} | {step / 1e6:.2f} M | {mean:.3f} ± {std:.3f} "
                   f"({len(values)}) | {t} | {p} |")
   return rows
