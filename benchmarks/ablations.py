@@ -170,15 +170,20 @@ def curve(rows: list[dict], key: str) -> tuple[list[float], list[float], list[fl
   return steps, mean, std
 
 
-def p_text(p: float) -> str:
-  """A p-value as the tables print it: three decimals, or "< 0.001" below that."""
-  return "< 0.001" if p < 0.001 else f"{p:.3f}"
+def welch_cells(values, ref) -> list[str]:
+  """The two table cells of Welch's t-test of ``values`` against ``ref``: t, and p with three
+  decimals or "< 0.001" below that; both empty where either side has fewer than 2 values."""
+  from scipy import stats
+  if not (values and ref and len(values) > 1 and len(ref) > 1):
+    return ["", ""]
+  test = stats.ttest_ind(values, ref, equal_var=False)
+  return [f"{test.statistic:+.2f}",
+          "< 0.001" if test.pvalue < 0.001 else f"{test.pvalue:.3f}"]
 
 
 def compare(arms: dict[str, dict], metrics: tuple[str, ...]) -> list[str]:
   """Markdown rows: per arm and metric, mean +- std over seeds, and Welch's t-test against the
   first arm of the same objective. ``arms``: ``{name: eval.json}``."""
-  from scipy import stats
   rows = ["| arm | metric | mean ± std (seeds) | Welch t vs first | p |",
           "| --- | --- | ---: | ---: | ---: |"]
   first: dict[str, str] = {}  # objective -> its first arm
@@ -190,11 +195,8 @@ def compare(arms: dict[str, dict], metrics: tuple[str, ...]) -> list[str]:
         continue
       n = len(values)
       mean, std = paper_tables.mean_std(values)
-      ref = arms[reference]["per_seed"].get(key)
-      t, p = "", ""
-      if name != reference and ref and n > 1 and len(ref) > 1:
-        test = stats.ttest_ind(values, ref, equal_var=False)
-        t, p = f"{test.statistic:+.2f}", p_text(test.pvalue)
+      ref = arms[reference]["per_seed"].get(key) if name != reference else None
+      t, p = welch_cells(values, ref)
       rows.append(f"| {name} | {key} | {mean:.3f} ± {std:.3f} ({n}) | {t} | {p} |")
   return rows
 
@@ -204,7 +206,6 @@ def against(curves: dict[str, list[dict]], name: str, reference: list[dict],
   """Markdown rows: each arm's last evaluation in its metrics.csv (where every seed has a value)
   against the evaluation of ``reference`` (another run's metrics.csv rows, e.g. a finished row's)
   at the same env steps, Welch's t-test. ``curves``: ``{arm label: metrics.csv rows}``."""
-  from scipy import stats
   rows = [f"| arm | metric | env steps | arm: mean ± std (seeds) | {name}: mean ± std (seeds) "
           "| Welch t | p |", "| --- | --- | ---: | ---: | ---: | ---: | ---: |"]
   ref_by_key = {key: _by_step(reference, key) for key in metrics}
@@ -227,11 +228,7 @@ def against(curves: dict[str, list[dict]], name: str, reference: list[dict],
       else:
         ref_mean, ref_std = paper_tables.mean_std(ref)
         cells.append(f"{ref_mean:.3f} ± {ref_std:.3f} ({len(ref)})")
-        if len(values) > 1 and len(ref) > 1:
-          test = stats.ttest_ind(values, ref, equal_var=False)
-          cells += [f"{test.statistic:+.2f}", p_text(test.pvalue)]
-        else:
-          cells += ["", ""]
+        cells += welch_cells(values, ref)
       rows.append("| " + " | ".join(cells) + " |")
   return rows
 
@@ -241,7 +238,6 @@ def during(curves: dict[str, tuple[str, list[dict]]], metrics: tuple[str, ...]) 
   which every arm has every seed evaluated, and Welch's t-test against the first arm of the same
   objective: a study compared while an arm is unfinished. ``curves``: ``{arm label: (objective,
   metrics.csv rows)}``."""
-  from scipy import stats
   rows = ["| arm | metric | env steps | mean ± std (seeds) | Welch t vs first | p |",
           "| --- | --- | ---: | ---: | ---: | ---: |"]
   first: dict[str, str] = {}
@@ -255,11 +251,8 @@ def during(curves: dict[str, tuple[str, list[dict]]], metrics: tuple[str, ...]) 
       values = list(by_arm[label][step].values())
       reference = first.setdefault(objective, label)
       mean, std = paper_tables.mean_std(values)
-      t, p = "", ""
-      ref = list(by_arm[reference][step].values())
-      if label != reference and len(values) > 1 and len(ref) > 1:
-        test = stats.ttest_ind(values, ref, equal_var=False)
-        t, p = f"{test.statistic:+.2f}", p_text(test.pvalue)
+      t, p = welch_cells(values, list(by_arm[reference][step].values())
+                         if label != reference else None)
       rows.append(f"| {label} | {key} | {step / 1e6:.2f} M | {mean:.3f} ± {std:.3f} "
                   f"({len(values)}) | {t} | {p} |")
   return rows
