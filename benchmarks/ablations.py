@@ -19,7 +19,14 @@ Studies (``--list`` prints them):
 - ``step_diayn``, ``step_gail`` (HalfCheetah only; not the paper's): DIAYN and GAIL at blx's
   half-cheetah step (16 substeps of 3.125 ms) and at 8 substeps of 6.25 ms (``env_params.edits``),
   both with 4 Newton iterations: whether the step ``cheetah_step.py`` found about twice as fast
-  learns the same at the same env steps (run with ``--steps`` below the paper's to fit a device call).
+  learns the same at the same env steps (``--steps`` below the paper's fits a device call);
+- ``push_scale``, ``legs`` (the paper's Composer sweeps, ``--env ant``): the task reward of
+  ``ant_push`` with the ball's velocity term scaled by 1 (the env's default), 0.2 and 0.5, and of
+  ``pro_ant_run`` with 4 (the registered env's), 2, 3, 8 and 10 legs, compared by episode score (the
+  paper: Ant Push is sensitive to the scale; running is consistent except with two legs). The
+  original's sweeps at the paper's commit trained each point for the ant's PPO row (30 M steps,
+  ``ant_push_sweep.py``) and the row x 10 (300 M, ``ant_run_morphology_sweep.py``); ``--steps``
+  trains another budget, and the report then says so.
 
 Each arm is a point of one ``blx sweep`` (``benchmarks/paper_tables.py`` gives the row's settings),
 trained with ``--eval-metrics`` so that MI, H(s) or the energy distance is logged at every
@@ -67,6 +74,8 @@ class Study:
   envs: tuple[str, ...] | None = None   # the envs the study is defined for (None: every one)
   labels: tuple[str, ...] | None = None  # legend names of the values (default: the arm's name)
   paper: bool = True           # whether ``claim`` is the paper's
+  scene: str | None = None     # the Composer env of a "task" study's arms (else ``--env``)
+  multiplier: int = 2          # the original's env steps per seed: the PPO row times this
 
   def label(self, name: str, run_spec) -> str:
     """An arm's legend entry: its sweep point's name, or where ``labels`` are given, the value's
@@ -75,6 +84,10 @@ class Study:
       return name.replace("__", ", ")
     label = self.labels[self.values.index(self.value(run_spec))]
     return f"{run_spec.objective}, {label}" if len(self.objectives) > 1 else label
+
+  def default_steps(self, env: str) -> int:
+    """The original's env steps per seed: the PPO row of the arms' env times ``multiplier``."""
+    return self.multiplier * paper_tables.ppo_defaults(self.scene or env).num_timesteps
 
   @property
   def claim_line(self) -> str:
@@ -120,12 +133,22 @@ STUDIES = {
                        ("eval/energy_distance",), _STEP_CLAIM,
                        group="env_params", envs=("halfcheetah",), labels=_STEP_LABELS,
                        paper=False),
+    "push_scale": Study("task", ("task",), "goal_scale", (1.0, 0.2, 0.5),
+                        ("eval/episode_score",),
+                        "Ant Push's score is sensitive to the scale of the ball's velocity term",
+                        group="env_params", envs=("ant",), scene="ant_push", multiplier=1,
+                        labels=("scale 1 (the env's)", "scale 0.2", "scale 0.5")),
+    "legs": Study("task", ("task",), "num_legs", (4, 2, 3, 8, 10), ("eval/episode_score",),
+                  "running is consistent across leg counts except with two legs",
+                  group="env_params", envs=("ant",), scene="pro_ant_run", multiplier=10,
+                  labels=("4 legs (the env's)", "2 legs", "3 legs", "8 legs", "10 legs")),
 }
 
 
 LABELS = {"eval/mi": "MI(s, z)", "eval/entropy": "H(s)", "eval/lgr": "LGR (lower is better)",
           "eval/energy_distance": "energy distance (lower is better)",
-          "eval/episode_env_reward": "episode env reward"}
+          "eval/episode_env_reward": "episode env reward",
+          "eval/episode_score": "episode score (the reward without its offsets)"}
 
 
 def spec(study: Study, env: str, seeds: int, steps: int | None = None,
@@ -134,7 +157,12 @@ def spec(study: Study, env: str, seeds: int, steps: int | None = None,
   PPO settings ``config`` over the row's, e.g. ``num_evals``, for every arm)."""
   if study.envs is not None and env not in study.envs:
     raise ValueError(f"env {env!r}: this study is defined for {list(study.envs)}")
-  base = paper_tables.specs(seeds, steps=steps, env=env, config=config)[study.family]
+  if study.family == "task":  # a Composer sweep: the scene's task reward, the ant's PPO row
+    base = dict(env=study.scene, seeds=list(range(seeds)), options={}, env_params={},
+                steps=study.default_steps(env) if steps is None else steps,
+                config=dict(config or {}))
+  else:
+    base = paper_tables.specs(seeds, steps=steps, env=env, config=config)[study.family]
   varied = dict(base[study.group])
   varied[study.option] = list(study.values)
   return dict(base, name=f"ablation_{study.option}_{env}", objective=list(study.objectives),
@@ -258,6 +286,16 @@ def during(curves: dict[str, tuple[str, list[dict]]], metrics: tuple[str, ...]) 
   return rows
 
 
+def budget_line(study: Study, sweep_spec: dict) -> str:
+  """The arms' env steps per seed, and the original's where the arms ran another budget."""
+  steps, original = int(sweep_spec["steps"]), study.default_steps(sweep_spec["env"])
+  line = f"Env steps per seed: {steps / 1e6:g} M"
+  if steps == original:
+    return line + " (the original's)."
+  budget = "shorter" if steps < original else "longer"
+  return line + f"; the original's: {original / 1e6:g} M (a {budget} budget)."
+
+
 @dataclasses.dataclass(frozen=True)
 class Reference:
   """Another run the arms are compared with (``--reference``), e.g. a finished row."""
@@ -361,7 +399,8 @@ def report(study_name: str, study: Study, directory: str, sweep_spec: dict,
                 "another objective are tested against their own first arm):\n\n"
                 + "\n".join(compare(final, study.metrics)))
   with open(os.path.join(directory, "ablation.md"), "w") as f:
-    f.write(f"# {study_name}\n\n{study.claim_line[0].upper()}{study.claim_line[1:]}.\n\n{table}\n")
+    f.write(f"# {study_name}\n\n{study.claim_line[0].upper()}{study.claim_line[1:]}.\n\n"
+            f"{budget_line(study, sweep_spec)}\n\n{table}\n")
   return table
 
 
@@ -372,7 +411,8 @@ def main():
   parser.add_argument("--env", choices=paper_tables.ENVS, default="ant")
   parser.add_argument("--seeds", type=int, default=10)
   parser.add_argument("--steps", type=int, default=None,
-                      help="env steps per seed (default the paper's: the env's PPO row x 2)")
+                      help="env steps per seed (default the original's: the env's PPO row x 2; "
+                           "x 1 and x 10 for the Composer sweeps); the report names another")
   parser.add_argument("--arm", action="append", default=None, metavar="VALUE",
                       help="train only the arms with this value (JSON, e.g. false or 10.0)")
   parser.add_argument("--objective", action="append", default=None, metavar="NAME",

@@ -68,7 +68,15 @@ __all__ = ["ant", "pro_ant", "octopus", "halfcheetah", "humanoid", "ANT_DAMPING"
 
 ANT_DAMPING = 35.0        # Brax joint angular_damping, N m s/rad
 ANT_STRENGTH = 300.0      # Brax motor strength (v0.0.6 stock ant)
-PRO_ANT_STRENGTH = 350.0  # Braxlines' procedural ant
+# Braxlines' procedural ant at the paper's commit (2821f78, 2021-10-04); 350 from 2021-10-12.
+PRO_ANT_STRENGTH = 300.0
+# Its leg (components/pro_ant.py): a thigh capsule (r 0.08, 0.44284 m end to end) centred on its
+# hip, the hip 0.30142 m out from the torso's centre; the knee 0.14142 m past the hip; the shin's
+# centre of mass 0.28284 m past the knee and its foot sphere (the shin capsule's outer end) 0.28284
+# m further.
+PRO_ANT_HIP = 0.4428427219390869 / 2 + 0.08
+PRO_ANT_KNEE = 0.4428427219390869 / 2 - 0.08
+PRO_ANT_SHIN = 0.7256854176521301 / 2 - 0.08
 ANT_LIMIT = (0.01, 1.0)   # solreflimit: 100 rad/s (Brax's limit_strength 5000 on inertia-1 links), damped
 _UNIT = dict(diaginertia=(1.0, 1.0, 1.0))
 # Brax's ant steps 0.05 s as 10 substeps of 5 ms; the registered ant envs do the same. The Newton
@@ -172,15 +180,68 @@ def ant(limit_damping: float = ANT_LIMIT[1]) -> ComponentSpec:
                    limit_damping=_check_limit_damping("ant", limit_damping))
 
 
-def pro_ant(num_legs: int = 4, limit_damping: float = ANT_LIMIT[1]) -> ComponentSpec:
-  """Braxlines' procedural ant: the Brax ant's legs, ``num_legs`` (2..16) of them from +x, strength
-  350; ``limit_damping`` as for :func:`ant`."""
+def pro_ant(num_legs: int = 4, limit_damping: float = ANT_LIMIT[1],
+            strength: float = PRO_ANT_STRENGTH) -> ComponentSpec:
+  """Braxlines' procedural ant as the paper ran it (``components/pro_ant.py`` at 2821f78):
+  ``num_legs`` (2..16) legs from +x, each a hip on a vertical hinge (+-30 deg) and a knee across
+  the leg (30..70 deg, positive = foot down), on a 10 kg torso sphere (r 0.25).
+
+  The leg is not the stock ant's (:func:`ant`): the hip sits 0.301 m out with the thigh's centre of
+  mass on it, the knee 0.141 m past the hip, the shin's centre of mass 0.283 m past the knee and the
+  foot 0.566 m past it (1.009 m from the torso's centre, against the stock ant's 1.131 m). The
+  colliders are the torso, both thigh capsules' end spheres (MuJoCo: the whole thigh capsule) and
+  the feet. Every link is 1 kg with inertia 1, every joint damped with 35 N m s/rad. The episode
+  ends when the torso leaves z in [0.2, 1.0] or turns upside down (the original's upright rule,
+  which its ant component has not).
+
+  ``strength``: the motors' (300, the paper's; Braxlines raised it to 350 a week after).
+  ``limit_damping``: the damping ratio of the joint limits, as for :func:`ant`.
+  """
   if not isinstance(num_legs, int) or isinstance(num_legs, bool) or not (
       MIN_LEGS <= num_legs <= MAX_LEGS):
     raise ValueError(
         f"pro_ant: num_legs={num_legs!r} is out of range; valid values are {MIN_LEGS}..{MAX_LEGS}")
-  return _brax_ant(num_legs, 0.0, PRO_ANT_STRENGTH, brax_axes=False,
-                   limit_damping=_check_limit_damping("pro_ant", limit_damping))
+  if isinstance(strength, bool) or not isinstance(strength, (int, float)) or not (
+      math.isfinite(strength) and strength > 0):
+    raise ValueError(f"pro_ant: strength={strength!r} must be a finite number > 0 (N m per unit "
+                     f"action; the paper's is {PRO_ANT_STRENGTH:g})")
+  limits = dict(limited="true", damping=ANT_DAMPING, armature=0,
+                solreflimit=(ANT_LIMIT[0], _check_limit_damping("pro_ant", limit_damping)))
+  torso = Element("body", {"name": "torso", "pos": (0, 0, 0.5)})
+  torso.add("freejoint", name="root")
+  _inertial(torso, 10.0)
+  torso.add("geom", name="torso_geom", type="sphere", size=0.25, mass=0)
+  motors, colliders, default, bodies = [], ["torso_geom"], {}, ["torso"]
+  for i in range(1, num_legs + 1):
+    theta = 2 * math.pi * (i - 1) / num_legs
+    u = np.array([math.cos(theta), math.sin(theta), 0.0])
+    at = lambda r: tuple(np.round(r * u, 12))
+    thigh = torso.add("body", name=f"thigh_{i}", pos=at(PRO_ANT_HIP))
+    thigh.add("joint", name=f"hip_{i}", type="hinge", axis=(0, 0, 1),
+              range=(-math.radians(30), math.radians(30)), **limits)
+    _inertial(thigh, 1.0)
+    thigh.add("geom", name=f"thigh_{i}_geom", type="capsule", size=0.08, mass=0,
+              fromto=(*at(-PRO_ANT_KNEE), *at(PRO_ANT_KNEE)))
+    shin = thigh.add("body", name=f"shin_{i}", pos=at(PRO_ANT_KNEE))
+    shin.add("joint", name=f"ankle_{i}", type="hinge",
+             axis=tuple(np.round((-math.sin(theta), math.cos(theta), 0.0), 12)),
+             range=(math.radians(30), math.radians(70)), **limits)
+    _inertial(shin, 1.0, pos=at(PRO_ANT_SHIN))
+    shin.add("geom", name=f"shin_{i}_geom", type="capsule", fromto=(0, 0, 0, *at(2 * PRO_ANT_SHIN)),
+             size=0.08, mass=0)
+    shin.add("geom", name=f"foot_{i}_geom", type="sphere", pos=at(2 * PRO_ANT_SHIN), size=0.08,
+             mass=0)
+    motors += [(f"hip_{i}", float(strength)), (f"ankle_{i}", float(strength))]
+    colliders += [f"thigh_{i}_geom", f"foot_{i}_geom"]
+    default[f"ankle_{i}"] = math.radians(50.0)
+    bodies += [f"thigh_{i}", f"shin_{i}"]
+  return ComponentSpec(
+      bodies=(torso,), motors=tuple(motors), root="torso", root_linear={-1: "root"},
+      colliders=tuple(colliders), root_colliders=("torso_geom",),
+      observers=("root_z_joints", "cfrc"),
+      termination=Termination(min_z=0.2, max_z=1.0, check_flip=True),
+      default_qpos=default, rest_on_ground=True, torque_cut=True,
+      contact_bodies=tuple(bodies), contact_clip=1.0)
 
 
 # Braxlines' octopus (its ``components/octopus.py``): every body 1 kg with inertia 1, every joint a

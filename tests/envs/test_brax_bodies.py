@@ -257,13 +257,48 @@ def test_ant_contact_observation_is_the_contact_velocity_change():
       assert change[[2, 4, 6, 8], 2].sum() == pytest.approx(18.0 * 9.81 * base.dt, rel=0.05)
 
 
-def test_pro_ant_shares_the_ant_legs():
+def _body_xpos(env, name):
+  m, d = env.mj_model, mujoco.MjData(env.mj_model)
+  d.qpos[:] = env.init_qpos
+  mujoco.mj_kinematics(m, d)
+  return d.xpos[mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, f"agent1/{name}")]
+
+
+def test_pro_ant_is_the_papers_procedural_ant():
+  # components/pro_ant.py at 2821f78: legs of its own (not the stock ant's), motors of 300, and
+  # the upright rule.
   six = _env("pro_ant_run", num_legs=6)
-  assert float(six.mj_model.body_mass.sum()) == pytest.approx(10.0 + 12.0)
-  np.testing.assert_allclose(six.mj_model.actuator_gear[:, 0], 350.0)  # Braxlines' pro_ant
+  m = six.mj_model
+  assert float(m.body_mass.sum()) == pytest.approx(10.0 + 12.0)
+  np.testing.assert_allclose(m.actuator_gear[:, 0], 300.0)
   assert six.init_qpos[2] == pytest.approx(0.5133 + REST_CLEARANCE, abs=1e-4)
+  torso = _body_xpos(six, "torso")
+  for i, theta in ((1, 0.0), (3, 2 * np.pi / 3)):
+    u = np.array([np.cos(theta), np.sin(theta), 0.0])
+    np.testing.assert_allclose(_body_xpos(six, f"thigh_{i}") - torso, 0.30142136 * u, atol=1e-6)
+    np.testing.assert_allclose(_body_xpos(six, f"shin_{i}") - torso, 0.44284272 * u, atol=1e-6)
+    shin = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, f"agent1/shin_{i}")
+    np.testing.assert_allclose(m.body_ipos[shin], 0.28284271 * u, atol=1e-6)  # the shin's COM
+  foot = m.geom("agent1/foot_1_geom")
+  assert foot.pos == pytest.approx([0.56568542, 0.0, 0.0], abs=1e-6)
+  # the thighs collide with the floor as well as the feet and the torso
+  names = {m.geom(int(g)).name for pair in zip(m.pair_geom1, m.pair_geom2) for g in pair}
+  assert {f"agent1/thigh_{i}_geom" for i in range(1, 7)} <= names
+  assert {f"agent1/foot_{i}_geom" for i in range(1, 7)} <= names
+  assert not any(n.startswith("agent1/shin_") for n in names)
+  # upside down ends the episode, at any height
+  state = six.reset(jax.random.PRNGKey(0))
+  qpos = state.data.qpos.at[3:7].set(jnp.array([0.0, 1.0, 0.0, 0.0]))
+  flipped = six.step(state.replace(data=state.data.replace(qpos=qpos)), jnp.zeros(six.action_size))
+  assert 0.2 < float(flipped.data.qpos[2]) < 1.0 and float(flipped.done) == 1.0
+  assert float(six.step(state, jnp.zeros(six.action_size)).done) == 0.0
+  stronger = envs.create("pro_ant_run", num_legs=6, edits={
+      "components.agent1.component_params.strength": 350.0}).unwrapped
+  np.testing.assert_allclose(stronger.mj_model.actuator_gear[:, 0], 350.0)
   with pytest.raises(ValueError, match="num_legs=1 is out of range"):
     envs.create("pro_ant_run", num_legs=1)
+  with pytest.raises(ValueError, match="strength=-1 must be a finite number > 0"):
+    envs.create("pro_ant_run", edits={"components.agent1.component_params.strength": -1})
 
 
 # --------------------------------------------------------------------------------------------------

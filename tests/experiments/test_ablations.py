@@ -21,7 +21,7 @@ def _default(objective, option):
 
 
 _STUDY_ENVS = [(name, env) for name, study in sorted(ablations.STUDIES.items())
-               for env in (study.envs or ("ant", "humanoid"))]
+               if study.family != "task" for env in (study.envs or ("ant", "humanoid"))]
 
 
 @pytest.mark.parametrize("name,env", _STUDY_ENVS)
@@ -45,6 +45,32 @@ def test_arms_differ_from_the_paper_row_in_the_studied_option_only(name, env):
       assert getattr(arm, other_field) == row[other]
       assert (arm.env, arm.seeds) == (env, tuple(range(10)))
       assert arm.ppo == {"num_timesteps": row["steps"]}
+
+
+@pytest.mark.parametrize("name,scene,steps", [("push_scale", "ant_push", 30_000_000),
+                                               ("legs", "pro_ant_run", 300_000_000)])
+def test_the_composer_sweeps_vary_their_scenes_parameter_on_the_originals_budget(name, scene,
+                                                                                 steps):
+  # The original's sweeps at the paper's commit: ant_push_sweep.py trains the ant's PPO row (30 M
+  # steps), ant_run_morphology_sweep.py the row x 10.
+  from blx.envs import descs, registry
+  study = ablations.STUDIES[name]
+  points = sweep.expand(ablations.spec(study, "ant", 10))
+  assert [study.value(s) for _, s in points] == list(study.values)
+  registered = inspect.signature(getattr(descs, scene)).parameters[study.option].default
+  assert study.values[0] == registered  # the first arm is the registered env
+  for _, arm in points:
+    assert (arm.env, arm.objective, arm.seeds) == (scene, "task", tuple(range(10)))
+    assert arm.env_params == {study.option: study.value(arm)} and arm.objective_options == {}
+    assert arm.ppo == {"num_timesteps": steps}
+  desc = registry.get_desc(scene, **points[1][1].env_params)
+  assert points[1][1].env_params[study.option] != registered and desc != registry.get_desc(scene)
+  assert ablations.budget_line(study, ablations.spec(study, "ant", 2)) == (
+      f"Env steps per seed: {steps / 1e6:g} M (the original's).")
+  assert ablations.budget_line(study, ablations.spec(study, "ant", 2, steps=6_000_000)) == (
+      f"Env steps per seed: 6 M; the original's: {steps / 1e6:g} M (a shorter budget).")
+  with pytest.raises(ValueError, match=r"defined for \['ant'\]"):
+    ablations.spec(study, "humanoid", 2)
 
 
 def test_the_step_studies_keep_the_cheetahs_env_step_and_iterations():
