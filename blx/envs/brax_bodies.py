@@ -108,7 +108,7 @@ def _check_limit_damping(where: str, value) -> float:
   return float(value)
 
 
-def _brax_ant(num_legs: int, first_angle: float, strength: float, brax_axes: bool,
+def _brax_ant(num_legs: int, first_angle: float, strength: float,
               limit_damping: float) -> ComponentSpec:
   """A Brax v1 ant: a 10 kg torso sphere (r 0.25) and ``num_legs`` legs of two 1 kg links.
 
@@ -118,8 +118,8 @@ def _brax_ant(num_legs: int, first_angle: float, strength: float, brax_axes: boo
   sqrt(2) m past the ankle and its foot sphere (r 0.08, the only collider of the leg) 0.4 sqrt(2) m
   past it. Every inertia is 1 I_3, every joint damped with 35 N m s/rad, every motor of ``strength``.
 
-  ``brax_axes``: the stock ant's ankle axes and ranges (legs 2 and 3 have the axis flipped and the
-  range negated, so their angles read with the opposite sign), rather than one rule for every leg.
+  Legs 2 and 3 have the stock ant's flipped ankle axes and negated ranges, so their angles read with
+  the opposite sign.
   """
   seg = 0.2 * math.sqrt(2)
   torso = Element("body", {"name": "torso", "pos": (0, 0, 0.5)})
@@ -141,7 +141,7 @@ def _brax_ant(num_legs: int, first_angle: float, strength: float, brax_axes: boo
     shin = thigh.add("body", name=f"shin_{i}", pos=tuple(seg * u))
     axis = np.array([-math.sin(theta), math.cos(theta), 0.0])
     lo, hi = 30.0, 70.0
-    if brax_axes and i in (2, 3):  # the stock ant flips these two axes and negates their ranges
+    if i in (2, 3):  # the stock ant flips these two axes and negates their ranges
       axis, lo, hi = -axis, -70.0, -30.0
     shin.add("joint", name=f"ankle_{i}", type="hinge", axis=tuple(np.round(axis, 12)),
              range=(math.radians(lo), math.radians(hi)), **limits)
@@ -176,7 +176,7 @@ def ant(limit_damping: float = ANT_LIMIT[1]) -> ComponentSpec:
 
   ``limit_damping``: the damping ratio of the joint limits (see the module docstring).
   """
-  return _brax_ant(4, math.pi / 4, ANT_STRENGTH, brax_axes=True,
+  return _brax_ant(4, math.pi / 4, ANT_STRENGTH,
                    limit_damping=_check_limit_damping("ant", limit_damping))
 
 
