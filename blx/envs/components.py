@@ -188,8 +188,10 @@ def singleton(size: float | tuple = 0.25, collider_type: str = "sphere",
               no_obs: bool = False) -> ComponentSpec:
   """A free rigid object: a sphere of radius ``size`` or a capsule ``size=(radius, length)``.
 
-  Mass is radius**3 (Braxlines' convention); it starts resting on the floor (1 mm above it) under
-  its component position.
+  Mass is radius**3 and the inertia 1 I_3 about every axis, as Braxlines' singleton sets them (not
+  the solid sphere's 0.4 m r^2: Braxlines' 0.5 m ball of Ant Push is 0.125 kg with 80 times that
+  sphere's inertia, so it turns slowly and slides). It starts resting on the floor (1 mm above it)
+  under its component position.
   """
   if collider_type not in ("sphere", "capsule"):
     raise ValueError(
@@ -207,7 +209,8 @@ def singleton(size: float | tuple = 0.25, collider_type: str = "sphere",
     geom = dict(type="capsule", size=(radius, float(size[1]) / 2), quat=(0.7071068, 0, 0.7071068, 0))
   body = Element("body", {"name": "object", "pos": (0, 0, radius)})
   body.add("freejoint", name="root")
-  body.add("geom", name="object_geom", mass=radius**3, **geom)
+  body.add("inertial", pos=(0, 0, 0), mass=radius**3, diaginertia=(1.0, 1.0, 1.0))
+  body.add("geom", name="object_geom", mass=0, **geom)
   return ComponentSpec(
       bodies=(body,),
       motors=(),

@@ -31,6 +31,20 @@ APPENDIX_DESC = dict(
 )
 
 
+def test_singleton_has_braxlines_mass_and_unit_inertia():
+  # Braxlines' singleton: mass radius**3 and inertia 1 I_3 (Ant Push's ball: 0.125 kg, 80 times a
+  # solid 0.5 m sphere's 0.0125), so a push turns it slowly.
+  import mujoco
+  m = envs.create("ant_push").mj_model
+  ball = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, "cap1/object")
+  assert float(m.body_mass[ball]) == pytest.approx(0.125)
+  np.testing.assert_allclose(m.body_inertia[ball], 1.0)
+  big = envs.create("ant_on_ball").mj_model
+  ball = mujoco.mj_name2id(big, mujoco.mjtObj.mjOBJ_BODY, "ball/object")
+  assert float(big.body_mass[ball]) == pytest.approx(27.0)
+  np.testing.assert_allclose(big.body_inertia[ball], 1.0)
+
+
 def test_appendix_ant_push_example():
   env = envs.create(desc=APPENDIX_DESC)
   assert env.action_size == 12  # 6 legs x (hip, knee)
