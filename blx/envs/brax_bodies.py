@@ -108,29 +108,56 @@ def _check_limit_damping(where: str, value) -> float:
   return float(value)
 
 
-def _brax_ant(num_legs: int, first_angle: float, strength: float,
-              limit_damping: float) -> ComponentSpec:
-  """A Brax v1 ant: a 10 kg torso sphere (r 0.25) and ``num_legs`` legs of two 1 kg links.
-
-  Leg ``i`` points along ``theta_i = first_angle + 2 pi (i - 1) / N``. Its hip sits 0.2 sqrt(2) m out
-  from the torso centre on a vertical hinge (+-30 deg); its thigh (COM at the segment's middle) ends
-  at the ankle, a hinge across the leg (30..70 deg, positive = foot down); the shin's COM is 0.2
-  sqrt(2) m past the ankle and its foot sphere (r 0.08, the only collider of the leg) 0.4 sqrt(2) m
-  past it. Every inertia is 1 I_3, every joint damped with 35 N m s/rad, every motor of ``strength``.
-
-  Legs 2 and 3 have the stock ant's flipped ankle axes and negated ranges, so their angles read with
-  the opposite sign.
-  """
-  seg = 0.2 * math.sqrt(2)
+def _brax_torso() -> Element:
+  """A Brax v1 ant's torso: a free 10 kg sphere (r 0.25, inertia 1 I_3), 0.5 m up."""
   torso = Element("body", {"name": "torso", "pos": (0, 0, 0.5)})
   torso.add("freejoint", name="root")
   _inertial(torso, 10.0)
   torso.add("geom", name="torso_geom", type="sphere", size=0.25, mass=0)
+  return torso
+
+
+def _brax_limits(where: str, limit_damping) -> dict:
+  """The joint attributes every Brax ant leg shares: limited, damped with 35 N m s/rad."""
+  damping_ratio = _check_limit_damping(where, limit_damping)
+  return dict(limited="true", solreflimit=(ANT_LIMIT[0], damping_ratio), damping=ANT_DAMPING,
+              armature=0)
+
+
+def _brax_ant_spec(torso: Element, motors, leg_colliders, default: dict, bodies, *,
+                   check_flip: bool) -> ComponentSpec:
+  """The ComponentSpec of a Brax ant (stock or procedural): Brax's observation with the contact
+  change of every body, the height rule (and the upright rule where ``check_flip``), the torque
+  cut, and the rest pose on the floor."""
+  return ant_spec(torso, motors, leg_colliders, observers=("root_z_joints", "cfrc"),
+                  termination=Termination(min_z=0.2, max_z=1.0, check_flip=check_flip),
+                  default_qpos=default, rest_on_ground=True, torque_cut=True,
+                  contact_bodies=tuple(bodies), contact_clip=1.0)
+
+
+def ant(limit_damping: float = ANT_LIMIT[1]) -> ComponentSpec:
+  """Brax v1's stock ant (the paper's): 18 kg, strength 300, damping 35, legs at 45 + 90 k deg.
+
+  Leg ``i`` points along ``theta_i = pi / 4 + pi (i - 1) / 2``. Its hip sits 0.2 sqrt(2) m out from
+  the torso centre on a vertical hinge (+-30 deg); its thigh (COM at the segment's middle) ends at
+  the ankle, a hinge across the leg (30..70 deg, positive = foot down; legs 2 and 3 have the axis
+  flipped and the range negated, so their angles read with the opposite sign); the shin's COM is
+  0.2 sqrt(2) m past the ankle and its foot sphere (r 0.08, the only collider of the leg) 0.4
+  sqrt(2) m past it. Every inertia is 1 I_3.
+
+  Observation (81): torso z, quaternion, 8 joint angles, torso velocity (world), angular velocity
+  (world), 8 joint velocities, then contact Δv (9 bodies x 3) and Δω (9 x 3), clipped to +-1. Episodes
+  end when the torso leaves z in [0.2, 1.0]; there is no upside-down rule (Brax v0.0.6). Brax's
+  control step is ``global_options=ANT_OPTIONS`` (the registered ant envs set it).
+
+  ``limit_damping``: the damping ratio of the joint limits (see the module docstring).
+  """
+  limits = _brax_limits("ant", limit_damping)
+  seg = 0.2 * math.sqrt(2)
+  torso = _brax_torso()
   motors, feet, default, bodies = [], [], {}, ["torso"]
-  limits = dict(limited="true", solreflimit=(ANT_LIMIT[0], limit_damping), damping=ANT_DAMPING,
-                armature=0)
-  for i in range(1, num_legs + 1):
-    theta = first_angle + 2 * math.pi * (i - 1) / num_legs
+  for i in range(1, 5):
+    theta = math.pi / 4 + 2 * math.pi * (i - 1) / 4
     u = np.array([math.cos(theta), math.sin(theta), 0.0])
     thigh = torso.add("body", name=f"thigh_{i}", pos=tuple(seg * u))
     thigh.add("joint", name=f"hip_{i}", type="hinge", axis=(0, 0, 1),
@@ -150,34 +177,11 @@ def _brax_ant(num_legs: int, first_angle: float, strength: float,
              size=0.08, mass=0)
     shin.add("geom", name=f"foot_{i}_geom", type="sphere", pos=tuple(2 * seg * u), size=0.08,
              mass=0)
-    motors += [(f"hip_{i}", strength), (f"ankle_{i}", strength)]
+    motors += [(f"hip_{i}", ANT_STRENGTH), (f"ankle_{i}", ANT_STRENGTH)]
     feet.append(f"foot_{i}_geom")
     default[f"ankle_{i}"] = math.radians(0.5 * (lo + hi))
     bodies += [f"thigh_{i}", f"shin_{i}"]
-  return ant_spec(
-      torso, motors, feet,
-      observers=("root_z_joints", "cfrc"),
-      termination=Termination(min_z=0.2, max_z=1.0, check_flip=False),
-      default_qpos=default,
-      rest_on_ground=True,
-      torque_cut=True,
-      contact_bodies=tuple(bodies),
-      contact_clip=1.0,
-  )
-
-
-def ant(limit_damping: float = ANT_LIMIT[1]) -> ComponentSpec:
-  """Brax v1's stock ant (the paper's): 18 kg, strength 300, damping 35, legs at 45 + 90 k deg.
-
-  Observation (81): torso z, quaternion, 8 joint angles, torso velocity (world), angular velocity
-  (world), 8 joint velocities, then contact Δv (9 bodies x 3) and Δω (9 x 3), clipped to +-1. Episodes
-  end when the torso leaves z in [0.2, 1.0]; there is no upside-down rule (Brax v0.0.6). Brax's
-  control step is ``global_options=ANT_OPTIONS`` (the registered ant envs set it).
-
-  ``limit_damping``: the damping ratio of the joint limits (see the module docstring).
-  """
-  return _brax_ant(4, math.pi / 4, ANT_STRENGTH,
-                   limit_damping=_check_limit_damping("ant", limit_damping))
+  return _brax_ant_spec(torso, motors, feet, default, bodies, check_flip=False)
 
 
 def pro_ant(num_legs: int = 4, limit_damping: float = ANT_LIMIT[1],
@@ -205,13 +209,9 @@ def pro_ant(num_legs: int = 4, limit_damping: float = ANT_LIMIT[1],
       math.isfinite(strength) and strength > 0):
     raise ValueError(f"pro_ant: strength={strength!r} must be a finite number > 0 (N m per unit "
                      f"action; the paper's is {PRO_ANT_STRENGTH:g})")
-  limits = dict(limited="true", damping=ANT_DAMPING, armature=0,
-                solreflimit=(ANT_LIMIT[0], _check_limit_damping("pro_ant", limit_damping)))
-  torso = Element("body", {"name": "torso", "pos": (0, 0, 0.5)})
-  torso.add("freejoint", name="root")
-  _inertial(torso, 10.0)
-  torso.add("geom", name="torso_geom", type="sphere", size=0.25, mass=0)
-  motors, colliders, default, bodies = [], ["torso_geom"], {}, ["torso"]
+  limits = _brax_limits("pro_ant", limit_damping)
+  torso = _brax_torso()
+  motors, colliders, default, bodies = [], [], {}, ["torso"]
   for i in range(1, num_legs + 1):
     theta = 2 * math.pi * (i - 1) / num_legs
     u = np.array([math.cos(theta), math.sin(theta), 0.0])
@@ -235,13 +235,7 @@ def pro_ant(num_legs: int = 4, limit_damping: float = ANT_LIMIT[1],
     colliders += [f"thigh_{i}_geom", f"foot_{i}_geom"]
     default[f"ankle_{i}"] = math.radians(50.0)
     bodies += [f"thigh_{i}", f"shin_{i}"]
-  return ComponentSpec(
-      bodies=(torso,), motors=tuple(motors), root="torso", root_linear={-1: "root"},
-      colliders=tuple(colliders), root_colliders=("torso_geom",),
-      observers=("root_z_joints", "cfrc"),
-      termination=Termination(min_z=0.2, max_z=1.0, check_flip=True),
-      default_qpos=default, rest_on_ground=True, torque_cut=True,
-      contact_bodies=tuple(bodies), contact_clip=1.0)
+  return _brax_ant_spec(torso, motors, colliders, default, bodies, check_flip=True)
 
 
 # Braxlines' octopus (its ``components/octopus.py``): every body 1 kg with inertia 1, every joint a
