@@ -26,7 +26,10 @@ Studies (``--list`` prints them):
   paper: Ant Push is sensitive to the scale; running is consistent except with two legs). The
   original's sweeps at the paper's commit trained each point for the ant's PPO row (30 M steps,
   ``ant_push_sweep.py``) and the row x 10 (300 M, ``ant_run_morphology_sweep.py``); ``--steps``
-  trains another budget, and the report then says so.
+  trains another budget, and the report then says so;
+- ``legs_step`` (``--env ant``; not the paper's): the three-legged ``pro_ant_run`` at blx's step (4
+  substeps of 5 ms) and at the original's (16 of 1.25 ms), the same 0.02 s control step: whether
+  the step is why three legs fall short of the paper (RESULTS, session 26).
 
 Each arm is a point of one ``blx sweep`` (``benchmarks/paper_tables.py`` gives the row's settings),
 trained with ``--eval-metrics`` so that MI, H(s) or the energy distance is logged at every
@@ -109,6 +112,10 @@ CHEETAH_FAST_STEP = {"global_options.timestep": 0.00625, "global_options.substep
 _STEP_CLAIM = "8 substeps of 6.25 ms learn what blx's 16 of 3.125 ms learn, at the same env steps"
 _STEP_LABELS = ("blx's step: 16 x 3.125 ms", "8 x 6.25 ms")
 
+# The original's pro_ant_run step, 16 substeps of 1.25 ms, where blx steps 4 of 5 ms (the same
+# 0.02 s): on three legs, which fall short of the paper at blx's step.
+_THREE_LEGS = {"components.agent1.component_params.num_legs": 3}
+PRO_ANT_ORIGINAL_STEP = {"global_options.timestep": 0.00125, "global_options.substeps": 16}
 
 STUDIES = {
     "sn_diayn": Study("mimax", ("diayn",), "spectral_norm", (True, False),
@@ -134,21 +141,30 @@ STUDIES = {
                        group="env_params", envs=("halfcheetah",), labels=_STEP_LABELS,
                        paper=False),
     "push_scale": Study("task", ("task",), "goal_scale", (1.0, 0.2, 0.5),
-                        ("eval/episode_score",),
+                        ("eval/episode_score", "eval/episode_length"),
                         "Ant Push's score is sensitive to the scale of the ball's velocity term",
                         group="env_params", envs=("ant",), scene="ant_push", multiplier=1,
                         labels=("scale 1 (the env's)", "scale 0.2", "scale 0.5")),
-    "legs": Study("task", ("task",), "num_legs", (4, 2, 3, 8, 10), ("eval/episode_score",),
+    "legs": Study("task", ("task",), "num_legs", (4, 2, 3, 8, 10),
+                  ("eval/episode_score", "eval/episode_length"),
                   "running is consistent across leg counts except with two legs",
                   group="env_params", envs=("ant",), scene="pro_ant_run", multiplier=10,
                   labels=("4 legs (the env's)", "2 legs", "3 legs", "8 legs", "10 legs")),
+    "legs_step": Study("task", ("task",), "edits",
+                       (_THREE_LEGS, {**_THREE_LEGS, **PRO_ANT_ORIGINAL_STEP}),
+                       ("eval/episode_score", "eval/episode_length"),
+                       "three legs run as well at the original's 16 x 1.25 ms step as at blx's "
+                       "4 x 5 ms", group="env_params", envs=("ant",), scene="pro_ant_run",
+                       multiplier=10, paper=False,
+                       labels=("3 legs, blx's step: 4 x 5 ms", "3 legs, 16 x 1.25 ms")),
 }
 
 
 LABELS = {"eval/mi": "MI(s, z)", "eval/entropy": "H(s)", "eval/lgr": "LGR (lower is better)",
           "eval/energy_distance": "energy distance (lower is better)",
           "eval/episode_env_reward": "episode env reward",
-          "eval/episode_score": "episode score (the reward without its offsets)"}
+          "eval/episode_score": "episode score (the reward without its offsets)",
+          "eval/episode_length": "episode length (steps; short: the body fell)"}
 
 
 def spec(study: Study, env: str, seeds: int, steps: int | None = None,

@@ -56,7 +56,10 @@ def ant_run():
 def pro_ant_run(num_legs: int = 4):
   """Braxlines' ``pro_ant_run``: ``ant_run``'s goal (r = 5 - ||v_xy - (4, 0)||) on a pro_ant of
   ``num_legs`` legs (the paper's morphology sweep: 2, 3, 4, 8, 10), at the original's 0.02 s
-  control step, as 4 substeps of the ant's 5 ms (the original: 16 of 1.25 ms)."""
+  control step, as 4 substeps of the ant's 5 ms (the original: 16 of 1.25 ms).
+
+  The default of 4 legs is later Braxlines' (``create_pro_ant_run``); at the paper's commit the
+  registered env had 10. The sweep names its leg count, so the default does not change it."""
   return dict(components=dict(agent1=dict(component="pro_ant",
                                           component_params=dict(num_legs=num_legs),
                                           reward_fns=dict(goal=_run_goal()))),
@@ -173,7 +176,10 @@ MIN_DIST = 0.5    # ... and the distance at which a predator catches the prey
 MAX_AGENTS = 10   # agent0 .. agent9 sort as they are numbered
 
 # Solver settings per main body: bodies in contact with each other need converged solves (see
-# ``ant_chase``); the point has no colliders.
+# ``ant_chase``); the point has no colliders. The original's scenes set no step, so every agent
+# took the Composer's default 0.05 s (10 substeps): blx's ant and pro_ant step the same 0.05 s
+# (10 x 5 ms); its humanoid and halfcheetah keep their own bodies' steps (the original's
+# multi-agent sweeps use only ants).
 _SCENE_OPTIONS = {"ant": dict(ANT_OPTIONS, iterations=4),
                   "pro_ant": dict(ANT_OPTIONS, iterations=4),
                   "humanoid": dict(HUMANOID_OPTIONS, iterations=4),

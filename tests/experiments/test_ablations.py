@@ -57,6 +57,10 @@ def test_the_composer_sweeps_vary_their_scenes_parameter_on_the_originals_budget
   study = ablations.STUDIES[name]
   points = sweep.expand(ablations.spec(study, "ant", 10))
   assert [study.value(s) for _, s in points] == list(study.values)
+  # An episode that ends early (the body fell or flipped) sums fewer per-step scores, all negative,
+  # so its score looks better: the length is tabulated and drawn beside it.
+  assert study.metrics == ("eval/episode_score", "eval/episode_length")
+  assert all(m in ablations.LABELS for m in study.metrics)
   registered = inspect.signature(getattr(descs, scene)).parameters[study.option].default
   assert study.values[0] == registered  # the first arm is the registered env
   for _, arm in points:
@@ -84,6 +88,22 @@ def test_the_step_studies_keep_the_cheetahs_env_step_and_iterations():
   assert base["substeps"] == 16
   with pytest.raises(ValueError, match=r"defined for \['halfcheetah'\]"):
     ablations.spec(ablations.STUDIES["step_diayn"], "ant", 2)
+
+
+def test_the_legs_step_study_runs_three_legs_at_blxs_step_and_at_the_originals():
+  from blx.envs import registry
+  study = ablations.STUDIES["legs_step"]
+  points = sweep.expand(ablations.spec(study, "ant", 2))
+  descs = [registry.get_desc(arm.env, **arm.env_params) for _, arm in points]
+  assert [arm.env for _, arm in points] == ["pro_ant_run"] * 2
+  assert [d["components"]["agent1"]["component_params"]["num_legs"] for d in descs] == [3, 3]
+  steps = [(d["global_options"]["timestep"], d["global_options"]["substeps"]) for d in descs]
+  assert steps[0] == (registry.get_desc("pro_ant_run")["global_options"]["timestep"],
+                      registry.get_desc("pro_ant_run")["global_options"]["substeps"])
+  assert steps[1] == (0.00125, 16)  # the original's pro_ant_run: dt 0.02 in 16 substeps
+  assert steps[0][0] * steps[0][1] == pytest.approx(steps[1][0] * steps[1][1]) == 0.02
+  with pytest.raises(ValueError, match=r"defined for \['ant'\]"):
+    ablations.spec(study, "humanoid", 2)
 
 
 def test_curve_is_the_mean_and_std_over_seeds_where_every_seed_was_evaluated():
