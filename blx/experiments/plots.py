@@ -15,10 +15,11 @@ from blx import envs, metrics
 __all__ = ["training_curves", "skills", "paths", "draw_paths", "root_body", "root_xy", "density",
            "discriminator", "write_all"]
 
-CURVE_PATTERNS = (r"^eval/episode_reward$", r"^eval/episode_score$", r"^eval/mi$",
-                  r"^eval/entropy$", r"^eval/lgr$", r"^eval/energy_distance$", r"^eval/mode_share/\d+$",
-                  r"^loss/disc$",
-                  r"^disc/accuracy$", r"^loss/policy$", r"^policy/entropy$")
+# The episode length follows the totals: an episode cut short by a fall sums fewer steps.
+CURVE_PATTERNS = (r"^eval/episode_reward$", r"^eval/episode_score$", r"^eval/episode_length$",
+                  r"^eval/mi$", r"^eval/entropy$", r"^eval/lgr$", r"^eval/energy_distance$",
+                  r"^eval/mode_share/\d+$", r"^loss/disc$", r"^disc/accuracy$", r"^loss/policy$",
+                  r"^policy/entropy$")
 PER_AGENT = ("eval/episode_reward", "eval/episode_score")  # split by agent in multi-agent runs
 
 
@@ -48,6 +49,7 @@ def curve_titles(keys, objective) -> dict[str, str]:
 YLABELS = {
     "eval/episode_reward": "objective's reward per episode",
     "eval/episode_score": "env's score per episode",
+    "eval/episode_length": "env steps per episode",
     "eval/mi": "MI(s; z) (nats)",
     "eval/entropy": "H(s) (nats)",
     "eval/lgr": "LGR (distance to goal)",

@@ -106,7 +106,10 @@ register_family(MimaxSpec, Family(
 register_family(DminSpec, Family(
     name="dmin", make_evaluator=_dmin, plot="density",
     table=(("-energy distance", "eval/energy_distance", -1.0),)))
+# A task's reward and score sum per-step terms over the episode, so an episode that ends early (a
+# body that falls) sums fewer of them: its length is tabulated beside them.
 register_family(TaskSpec, Family(
     name="task", make_evaluator=None,
     table=(("episode reward", "eval/episode_reward", 1.0),
-           ("episode score", "eval/episode_score", 1.0))))
+           ("episode score", "eval/episode_score", 1.0),
+           ("episode length", "eval/episode_length", 1.0))))

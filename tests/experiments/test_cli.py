@@ -166,6 +166,31 @@ def test_sweep_writes_one_run_per_point_and_aggregate_tables(tmp_path, capsys):
   assert os.path.getmtime(os.path.join(out, "objective=gcrl", "eval.json")) == mtime
 
 
+def test_a_task_sweeps_table_gives_the_episode_length_beside_the_score(tmp_path):
+  # Two legs flip within 240 of 1,000 steps and so score higher than four that run (session 26);
+  # only the length tells.
+  from blx import metrics
+  from blx.objectives import presets
+  family = metrics.family_of(presets.make("task"))
+  summaries = {"num_legs=4": {"eval/episode_score": (-1091.0, 356.0),
+                              "eval/episode_length": (996.0, 8.0)},
+               "num_legs=2": {"eval/episode_score": (-772.0, 676.0),
+                              "eval/episode_length": (240.0, 172.0)}}
+  rows = [{"name": name, "env": "pro_ant_run", "objective": "task", "family": family.name,
+           "columns": family.table, "seeds": 10,
+           "summary": {k: {"mean": m, "std": sd} for k, (m, sd) in summary.items()}}
+          for name, summary in summaries.items()]
+  sweep.write_tables(rows, str(tmp_path))
+  table = {r["run"]: r for r in csv.DictReader(open(tmp_path / "summary.csv"))}
+  assert float(table["num_legs=2"]["episode score mean"]) > float(
+      table["num_legs=4"]["episode score mean"])
+  assert float(table["num_legs=2"]["episode length mean"]) == 240.0
+  assert float(table["num_legs=4"]["episode length mean"]) == 996.0
+  md = (tmp_path / "summary.md").read_text()
+  assert "| run | seeds | episode reward | episode score | episode length |" in md
+  assert "| num_legs=2 | 10 | - | -772.000 ± 676.000 | 240.000 ± 172.000 |" in md
+
+
 @pytest.mark.parametrize("argv, message", [
     (["train", "--env", "nope"], "unknown env 'nope'; valid envs are"),
     (["train", "--objective", "dayn"], "unknown objective 'dayn'; valid objectives are"),

@@ -24,11 +24,14 @@ def test_curve_panels_say_what_they_measure_and_what_the_band_is(tmp_path):
   assert plots.curve_ylabel("train/some_new_thing") == "some new thing"  # unknown keys stay legible
   assert plots.band_caption(10).startswith("line: mean over 10 seeds, band: lowest to highest seed")
   assert plots.band_caption(1).startswith("one seed")
-  history = [{"env_steps": 1e6 * (i + 1), "eval/mi": [0.1 * i, 0.2 * i], "loss/policy": [1.0, 2.0]}
-             for i in range(3)]
+  assert plots.curve_ylabel("eval/episode_length") == "env steps per episode"
+  history = [{"env_steps": 1e6 * (i + 1), "eval/mi": [0.1 * i, 0.2 * i], "loss/policy": [1.0, 2.0],
+              "eval/episode_length": [1000.0, 240.0], "eval/episode_score": [-1e3, -8e2],
+              "train/reward": [0.0, 0.0]} for i in range(3)]
   path = tmp_path / "curves.png"
-  assert plots.training_curves(history, str(path), title="diayn on point") == ["eval/mi",
-                                                                                "loss/policy"]
+  # the length beside the score it qualifies; keys outside the panels' patterns are left out
+  assert plots.training_curves(history, str(path), title="diayn on point") == [
+      "eval/episode_score", "eval/episode_length", "eval/mi", "loss/policy"]
   assert path.stat().st_size > 0
 
 
