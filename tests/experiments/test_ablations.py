@@ -98,8 +98,8 @@ def test_the_legs_step_study_runs_three_legs_at_blxs_step_and_at_the_originals()
   assert [arm.env for _, arm in points] == ["pro_ant_run"] * 2
   assert [d["components"]["agent1"]["component_params"]["num_legs"] for d in descs] == [3, 3]
   steps = [(d["global_options"]["timestep"], d["global_options"]["substeps"]) for d in descs]
-  assert steps[0] == (registry.get_desc("pro_ant_run")["global_options"]["timestep"],
-                      registry.get_desc("pro_ant_run")["global_options"]["substeps"])
+  registered = registry.get_desc("pro_ant_run")["global_options"]
+  assert steps[0] == (registered["timestep"], registered["substeps"])
   assert steps[1] == (0.00125, 16)  # the original's pro_ant_run: dt 0.02 in 16 substeps
   assert steps[0][0] * steps[0][1] == pytest.approx(steps[1][0] * steps[1][1]) == 0.02
   with pytest.raises(ValueError, match=r"defined for \['ant'\]"):
