@@ -72,6 +72,20 @@ def _steps_formatter():
   return FuncFormatter(fmt)
 
 
+# Curves of a count, an episode's length, are drawn from 0: a run whose episodes all last to the
+# end is then a flat line at the episode length, not one short episode magnified to fill the panel.
+FROM_ZERO = ("eval/episode_length",)
+
+
+def value_axis(ax, key: str) -> None:
+  """Sets a curve panel's y axis, once its curves are drawn: tick labels are the values themselves
+  (no "+1e3" offset above the axis) and a count (``FROM_ZERO``) is drawn from 0."""
+  ax.ticklabel_format(axis="y", useOffset=False)
+  if key in FROM_ZERO:
+    top = max(ax.get_ylim()[1], 0.0)
+    ax.set_ylim(0.0, 1.05 * top if top > 0 else 1.0)
+
+
 def curve_ylabel(key: str) -> str:
   """The y-axis label of a training-curve panel."""
   if re.match(r"^eval/mode_share/\d+$", key):
@@ -117,6 +131,7 @@ def training_curves(history: list[dict], path: str, *, titles: dict[str, str] | 
     ax.set_xlabel("env steps", fontsize=8)
     ax.xaxis.set_major_formatter(_steps_formatter())
     ax.set_ylabel(curve_ylabel(key), fontsize=8)
+    value_axis(ax, key)
     ax.tick_params(labelsize=7)
   for ax in list(axes.flat)[len(keys):]:
     ax.axis("off")

@@ -1,5 +1,7 @@
 """Plot labels a reader needs to read the training curves."""
 
+import pytest
+
 from blx import objectives
 from blx.experiments import plots
 
@@ -33,6 +35,30 @@ def test_curve_panels_say_what_they_measure_and_what_the_band_is(tmp_path):
   assert plots.training_curves(history, str(path), title="diayn on point") == [
       "eval/episode_score", "eval/episode_length", "eval/mi", "loss/policy"]
   assert path.stat().st_size > 0
+
+
+@pytest.mark.parametrize("key, lengths, bottom", [
+    ("eval/episode_length", [1000.0, 1000.0, 999.8], 0.0),  # episodes (nearly) all to the end
+    ("eval/episode_length", [240.0, 300.0, 360.0], 0.0),
+    # a score keeps its own range; a narrow one far from 0 would otherwise get an offset
+    ("eval/episode_score", [-8000.0, -7999.9, -7999.8], None),
+])
+def test_a_panels_ticks_are_its_values_and_a_length_is_drawn_from_zero(key, lengths, bottom):
+  from matplotlib.figure import Figure
+  ax = Figure().add_subplot()
+  ax.plot([1e6, 2e6, 3e6], lengths)
+  plots.value_axis(ax, key)
+  ax.figure.canvas.draw()
+  assert ax.yaxis.get_offset_text().get_text() == ""  # no "+1e3" to add to every tick in the head
+  lo, hi = ax.get_ylim()
+  assert hi >= max(lengths)
+  if bottom is None:
+    assert lo > -8001.0  # not stretched to 0
+  else:
+    assert lo == bottom
+  shown = [(loc, float(t.get_text().replace("\u2212", "-")))
+           for loc, t in zip(ax.get_yticks(), ax.get_yticklabels()) if lo <= loc <= hi]
+  assert len(shown) >= 3 and all(v == pytest.approx(loc) for loc, v in shown)  # labels are values
 
 
 def test_video_frames_carry_their_label_and_keep_the_scene():
