@@ -27,6 +27,9 @@ Studies (``--list`` prints them):
   original's sweeps at the paper's commit trained each point for the ant's PPO row (30 M steps,
   ``ant_push_sweep.py``) and the row x 10 (300 M, ``ant_run_morphology_sweep.py``); ``--steps``
   trains another budget, and the report then says so;
+- ``legs_original``: ``legs`` at the original's physics step (``pro_ant_run``'s
+  ``step="original"``, 16 substeps of 1.25 ms where blx's default steps 4 of 5 ms; 3.3 times the
+  cost per env step), where three legs run markedly better (RESULTS, session 27);
 - ``legs_step`` (``--env ant``; not the paper's): the three-legged ``pro_ant_run`` at blx's step (4
   substeps of 5 ms) and at the original's (16 of 1.25 ms), the same 0.02 s control step: whether
   the step is why three legs fall short of the paper (RESULTS, session 26).
@@ -60,6 +63,8 @@ import textwrap
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import paper_tables  # noqa: E402
 
+from blx.envs.descs import PRO_ANT_STEPS  # noqa: E402
+
 
 @dataclasses.dataclass(frozen=True)
 class Study:
@@ -79,6 +84,7 @@ class Study:
   paper: bool = True           # whether ``claim`` is the paper's
   scene: str | None = None     # the Composer env of a "task" study's arms (else ``--env``)
   multiplier: int = 2          # the original's env steps per seed: the PPO row times this
+  scene_params: dict | None = None  # env parameters every arm of a "task" study gives ``scene``
 
   def label(self, name: str, run_spec) -> str:
     """An arm's legend entry: its sweep point's name, or where ``labels`` are given, the value's
@@ -94,7 +100,12 @@ class Study:
 
   @property
   def claim_line(self) -> str:
-    return f"{'the paper' if self.paper else 'tested (not a claim of the paper)'}: {self.claim}"
+    """The claim tested, and whose it is; and the env parameters the arms share, where they do."""
+    line = f"{'the paper' if self.paper else 'tested (not a claim of the paper)'}: {self.claim}"
+    if self.scene_params:
+      shared = ", ".join(f"{k}={v!r}" for k, v in self.scene_params.items())
+      line += f"; every arm: {self.scene}({shared})"
+    return line
 
   def settings(self, run_spec) -> dict:
     """The dict of one arm's ``runs.RunSpec`` that the studied setting lives in."""
@@ -113,9 +124,10 @@ _STEP_CLAIM = "8 substeps of 6.25 ms learn what blx's 16 of 3.125 ms learn, at t
 _STEP_LABELS = ("blx's step: 16 x 3.125 ms", "8 x 6.25 ms")
 
 # The original's pro_ant_run step, 16 substeps of 1.25 ms, where blx steps 4 of 5 ms (the same
-# 0.02 s): on three legs, which fall short of the paper at blx's step.
+# 0.02 s): on three legs, which fall short of the paper at blx's step. As edits (not the env's
+# ``step="original"``), which name the arms' run directories of the study's first run.
 _THREE_LEGS = {"components.agent1.component_params.num_legs": 3}
-PRO_ANT_ORIGINAL_STEP = {"global_options.timestep": 0.00125, "global_options.substeps": 16}
+PRO_ANT_ORIGINAL_STEP = {f"global_options.{k}": v for k, v in PRO_ANT_STEPS["original"].items()}
 # A Composer task's score sums a per-step term, so an episode cut short by a fall scores higher:
 # the length is read beside it.
 _TASK_METRICS = ("eval/episode_score", "eval/episode_length")
@@ -151,6 +163,11 @@ STUDIES = {
                   "running is consistent across leg counts except with two legs",
                   group="env_params", envs=("ant",), scene="pro_ant_run", multiplier=10,
                   labels=("4 legs (the env's)", "2 legs", "3 legs", "8 legs", "10 legs")),
+    "legs_original": Study("task", ("task",), "num_legs", (4, 2, 3, 8, 10), _TASK_METRICS,
+                           "running is consistent across leg counts except with two legs",
+                           group="env_params", envs=("ant",), scene="pro_ant_run", multiplier=10,
+                           scene_params={"step": "original"},
+                           labels=("4 legs (the env's)", "2 legs", "3 legs", "8 legs", "10 legs")),
     "legs_step": Study("task", ("task",), "edits",
                        (_THREE_LEGS, {**_THREE_LEGS, **PRO_ANT_ORIGINAL_STEP}), _TASK_METRICS,
                        "three legs run as well at the original's 16 x 1.25 ms step as at blx's "
@@ -174,7 +191,8 @@ def spec(study: Study, env: str, seeds: int, steps: int | None = None,
   if study.envs is not None and env not in study.envs:
     raise ValueError(f"env {env!r}: this study is defined for {list(study.envs)}")
   if study.family == "task":  # a Composer sweep: the scene's task reward, the ant's PPO row
-    base = dict(env=study.scene, seeds=list(range(seeds)), options={}, env_params={},
+    base = dict(env=study.scene, seeds=list(range(seeds)), options={},
+                env_params=dict(study.scene_params or {}),
                 steps=study.default_steps(env) if steps is None else steps,
                 config=dict(config or {}))
   else:
@@ -345,13 +363,14 @@ def report(study_name: str, study: Study, directory: str, sweep_spec: dict,
   """Draws ``curves.png`` and writes ``ablation.md`` for the arms of ``sweep_spec`` under
   ``directory``: those evaluated, and those still training (a metrics.csv but no eval.json), drawn
   as unfinished and compared with the others during training, at the last env steps all of them
-  reached. ``reference``, another run (``read_reference``), is drawn over the arms' span of
-  env steps and compared with each arm's last evaluation during training; where it has its
-  eval.json, also each arm's final evaluation with its own."""
+  reached (also where no arm is evaluated yet: a stopped run's curves are not lost).
+  ``reference``, another run (``read_reference``), is drawn over the arms' span of env steps and
+  compared with each arm's last evaluation during training; where it has its eval.json, also each
+  arm's final evaluation with its own."""
   import matplotlib
   matplotlib.use("Agg")
   import matplotlib.pyplot as plt
-  from blx.experiments import sweep
+  from blx.experiments import plots, sweep
   arms, curves, labels, objectives = {}, {}, {}, {}
   for name, run_spec in sweep.expand(sweep_spec):
     path = os.path.join(directory, name)
@@ -366,8 +385,8 @@ def report(study_name: str, study: Study, directory: str, sweep_spec: dict,
         arms[name] = json.load(f)
     else:  # still training (or stopped): drawn and compared during training, not in the finals
       labels[name] += " (unfinished)"
-  if not arms:
-    raise SystemExit(f"{directory}: no evaluated arm of {study_name} yet")
+  if not curves:
+    raise SystemExit(f"{directory}: no arm of {study_name} has run yet (no metrics.csv)")
   fig, axes = plt.subplots(1, len(study.metrics), figsize=(5 * len(study.metrics), 3.6),
                            squeeze=False)
   span = max((float(r["env_steps"]) for rows in curves.values() for r in rows), default=0.0)
@@ -390,6 +409,7 @@ def report(study_name: str, study: Study, directory: str, sweep_spec: dict,
                         color="k", alpha=0.1)
     ax.set_xlabel("env steps per seed (millions)")
     ax.set_title(LABELS.get(key, key))
+    plots.value_axis(ax, key)
     ax.grid(alpha=0.3)
   axes[0][0].legend(fontsize=7)
   title = f"{study_name}; {study.claim_line} (mean ± std over seeds)"
@@ -398,7 +418,8 @@ def report(study_name: str, study: Study, directory: str, sweep_spec: dict,
   fig.savefig(os.path.join(directory, "curves.png"), dpi=120)
   plt.close(fig)
   labelled = {labels[name]: arm for name, arm in arms.items()}
-  table = "\n".join(compare(labelled, study.metrics))
+  table = ("\n".join(compare(labelled, study.metrics)) if arms
+           else "No arm has its final evaluation (eval.json) yet.")
   if len(arms) < len(curves):
     table += ("\n\nAn arm is unfinished: every arm's evaluation during training at the last env "
               "steps all of them reached:\n\n" + "\n".join(

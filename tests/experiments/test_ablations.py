@@ -90,6 +90,23 @@ def test_the_step_studies_keep_the_cheetahs_env_step_and_iterations():
     ablations.spec(ablations.STUDIES["step_diayn"], "ant", 2)
 
 
+def test_legs_original_is_the_leg_count_sweep_at_the_originals_step():
+  from blx.envs import registry
+  coarse, fine = (ablations.STUDIES[name] for name in ("legs", "legs_original"))
+  assert (fine.values, fine.labels, fine.claim, fine.paper) == (
+      coarse.values, coarse.labels, coarse.claim, coarse.paper)
+  plain = dict(sweep.expand(ablations.spec(coarse, "ant", 2)))
+  points = sweep.expand(ablations.spec(fine, "ant", 2))
+  assert [name for name, _ in points] == list(plain)  # the same arms, at another step
+  for name, arm in points:
+    assert arm.env_params == {**plain[name].env_params, "step": "original"}
+    assert arm.ppo == plain[name].ppo == {"num_timesteps": 300_000_000}
+    options = registry.get_desc(arm.env, **arm.env_params)["global_options"]
+    assert (options["timestep"], options["substeps"]) == (0.00125, 16)
+  # the report's header and figure title say so
+  assert fine.claim_line == coarse.claim_line + "; every arm: pro_ant_run(step='original')"
+
+
 def test_the_legs_step_study_runs_three_legs_at_blxs_step_and_at_the_originals():
   from blx.envs import registry
   study = ablations.STUDIES["legs_step"]
@@ -102,6 +119,9 @@ def test_the_legs_step_study_runs_three_legs_at_blxs_step_and_at_the_originals()
   assert steps[0] == (registered["timestep"], registered["substeps"])
   assert steps[1] == (0.00125, 16)  # the original's pro_ant_run: dt 0.02 in 16 substeps
   assert steps[0][0] * steps[0][1] == pytest.approx(steps[1][0] * steps[1][1]) == 0.02
+  # the arms are the env's two named steps
+  for desc, name in zip(descs, ("blx", "original")):
+    assert desc == registry.get_desc("pro_ant_run", num_legs=3, step=name)
   with pytest.raises(ValueError, match=r"defined for \['ant'\]"):
     ablations.spec(study, "humanoid", 2)
 
@@ -328,3 +348,13 @@ def test_an_unfinished_arm_is_drawn_and_compared_at_the_last_steps_every_arm_rea
       ["20.00 M", "2.800 ± 0.100 (2)", f"{want.statistic:+.2f}", f"{want.pvalue:.3f}"]]
   assert "(unfinished)" in rows[1] and "(unfinished)" not in rows[0]
   assert os.path.getsize(tmp_path / "curves.png") > 10_000
+  # Stopped before any arm's final evaluation: still drawn and compared during training.
+  (done / "eval.json").unlink()
+  table = ablations.report("gp", study, str(tmp_path), spec)
+  finals, during = table.split("An arm is unfinished")
+  assert finals.startswith("No arm has its final evaluation (eval.json) yet.")
+  assert [r for r in during.splitlines() if r.startswith("| objective=airl")] == [
+      rows[0].replace("weight=0.0", "weight=0.0 (unfinished)"), rows[1]]
+  (done / "metrics.csv").unlink(), (open_ / "metrics.csv").unlink()
+  with pytest.raises(SystemExit, match="no arm of gp has run yet"):
+    ablations.report("gp", study, str(tmp_path), spec)
