@@ -124,8 +124,8 @@ _STEP_CLAIM = "8 substeps of 6.25 ms learn what blx's 16 of 3.125 ms learn, at t
 _STEP_LABELS = ("blx's step: 16 x 3.125 ms", "8 x 6.25 ms")
 
 # The original's pro_ant_run step, 16 substeps of 1.25 ms, where blx steps 4 of 5 ms (the same
-# 0.02 s): on three legs, which fall short of the paper at blx's step. As edits (not the env's
-# ``step="original"``), which name the arms' run directories of the study's first run.
+# 0.02 s): on three legs, which fall short of the paper at blx's step. The arms are edits rather
+# than the env's ``step`` parameter: the edits name the run directories of the study's first run.
 _THREE_LEGS = {"components.agent1.component_params.num_legs": 3}
 PRO_ANT_ORIGINAL_STEP = {f"global_options.{k}": v for k, v in PRO_ANT_STEPS["original"].items()}
 # A Composer task's score sums a per-step term, so an episode cut short by a fall scores higher:
