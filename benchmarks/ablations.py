@@ -320,6 +320,35 @@ def during(curves: dict[str, tuple[str, list[dict]]], metrics: tuple[str, ...]) 
   return rows
 
 
+# +1: a larger value is better, -1: a smaller; the metrics whose wall time to a target is tabulated.
+BETTER = {"eval/mi": 1, "eval/entropy": 1, "eval/lgr": -1, "eval/energy_distance": -1,
+          "eval/episode_env_reward": 1, "eval/episode_score": 1}
+
+
+def time_to(curves: dict[str, tuple[str, list[dict]]], metrics: tuple[str, ...]) -> list[str]:
+  """Markdown rows: per metric of ``BETTER``, the first arm's (of each objective) last evaluation
+  during training, mean over seeds, is the target; per arm, the env steps and wall time
+  (metrics.csv's ``time``: seconds since the run's start, compilation and evaluations included) at
+  which its mean first reaches the target, or "not reached". Where arms cost differently per env
+  step (a finer physics step), this is what the study's user waits. ``curves``: ``{arm label:
+  (objective, metrics.csv rows)}``."""
+  rows = ["| arm | metric | target (first arm's last) | env steps | wall time |",
+          "| --- | --- | ---: | ---: | ---: |"]
+  for key in (k for k in metrics if k in BETTER):
+    sign, targets = BETTER[key], {}
+    for label, (objective, arm_rows) in curves.items():
+      steps, mean, _ = curve(arm_rows, key)
+      if not steps:
+        continue
+      target = targets.setdefault(objective, mean[-1])
+      wall = {float(r["env_steps"]): float(r["time"]) for r in arm_rows if r.get("time")}
+      hit = next((s for s, m in zip(steps, mean) if sign * (m - target) >= 0), None)
+      cells = (f"{hit / 1e6:.2f} M | {wall[hit]:,.0f} s" if hit is not None and hit in wall
+               else "not reached | ")
+      rows.append(f"| {label} | {key} | {target:.3f} | {cells} |")
+  return rows
+
+
 def budget_line(study: Study, sweep_spec: dict) -> str:
   """The arms' env steps per seed, and the original's where the arms ran another budget."""
   steps, original = int(sweep_spec["steps"]), study.default_steps(sweep_spec["env"])
@@ -425,6 +454,12 @@ def report(study_name: str, study: Study, directory: str, sweep_spec: dict,
               "steps all of them reached:\n\n" + "\n".join(
                   during({labels[n]: (objectives[n], rows) for n, rows in curves.items()},
                          study.metrics)))
+  if len(curves) > 1 and all(r.get("time") for rows in curves.values() for r in rows):
+    table += ("\n\nWall time to the first arm's last evaluation during training (mean over "
+              "seeds), from each run's start, compilation and evaluations included (compare arms "
+              "run on one device):\n\n" + "\n".join(
+                  time_to({labels[n]: (objectives[n], rows) for n, rows in curves.items()},
+                          study.metrics)))
   if reference is not None:
     rows = against({labels[name]: curves[name] for name in curves}, reference.name,
                    reference.rows, study.metrics)

@@ -201,6 +201,30 @@ def _write_metrics(path, values, key="eval/mi"):
       w.writerow({"seed": seed, "env_steps": step, key: v})
 
 
+def test_time_to_is_the_wall_time_at_which_each_arm_first_reaches_the_first_arms_last_mean():
+  def rows(points):  # {(seed, env steps): value}; wall time 10 s per million steps, x cost
+    return [{"seed": seed, "env_steps": step, "time": step / 1e5 * cost, "eval/lgr": v,
+             "eval/episode_score": -v * 100, "eval/episode_length": 1000.0}
+            for (seed, step, cost), v in points.items()]
+  m = 1e6
+  # the first arm (cheap) ends at 2.0; the second (3x the cost per step) is at 1.9 by 20 M; the
+  # third never gets there
+  cheap = rows({(0, 10 * m, 1): 3.0, (1, 10 * m, 1): 3.2, (0, 30 * m, 1): 1.9, (1, 30 * m, 1): 2.1})
+  dear = rows({(0, 10 * m, 3): 2.5, (1, 10 * m, 3): 2.5, (0, 20 * m, 3): 1.8, (1, 20 * m, 3): 2.0})
+  stuck = rows({(0, 10 * m, 1): 4.0, (1, 10 * m, 1): 4.0, (0, 30 * m, 1): 2.5, (1, 30 * m, 1): 2.5})
+  table = ablations.time_to({"cheap": ("task", cheap), "dear": ("task", dear),
+                             "stuck": ("task", stuck)},
+                            ("eval/lgr", "eval/episode_score", "eval/episode_length"))
+  cells = [[c.strip() for c in r.split("|")[1:-1]] for r in table[2:]]
+  assert cells == [
+      ["cheap", "eval/lgr", "2.000", "30.00 M", "300 s"],  # lower is better
+      ["dear", "eval/lgr", "2.000", "20.00 M", "600 s"],
+      ["stuck", "eval/lgr", "2.000", "not reached", ""],
+      ["cheap", "eval/episode_score", "-200.000", "30.00 M", "300 s"],  # higher is better
+      ["dear", "eval/episode_score", "-200.000", "20.00 M", "600 s"],
+      ["stuck", "eval/episode_score", "-200.000", "not reached", ""]]  # the length has no target
+
+
 def test_against_tests_each_arms_last_evaluation_against_the_reference_at_the_same_steps(tmp_path):
   arm = [{"seed": s, "env_steps": step, "eval/mi": v}
          for (s, step), v in {(0, 10): 0.1, (1, 10): 0.3, (0, 20): 1.0, (1, 20): 1.2}.items()]
