@@ -449,17 +449,14 @@ def report(study_name: str, study: Study, directory: str, sweep_spec: dict,
   labelled = {labels[name]: arm for name, arm in arms.items()}
   table = ("\n".join(compare(labelled, study.metrics)) if arms
            else "No arm has its final evaluation (eval.json) yet.")
+  by_label = {labels[n]: (objectives[n], rows) for n, rows in curves.items()}
   if len(arms) < len(curves):
     table += ("\n\nAn arm is unfinished: every arm's evaluation during training at the last env "
-              "steps all of them reached:\n\n" + "\n".join(
-                  during({labels[n]: (objectives[n], rows) for n, rows in curves.items()},
-                         study.metrics)))
+              "steps all of them reached:\n\n" + "\n".join(during(by_label, study.metrics)))
   if len(curves) > 1 and all(r.get("time") for rows in curves.values() for r in rows):
     table += ("\n\nWall time to the first arm's last evaluation during training (mean over "
               "seeds), from each run's start, compilation and evaluations included (compare arms "
-              "run on one device):\n\n" + "\n".join(
-                  time_to({labels[n]: (objectives[n], rows) for n, rows in curves.items()},
-                          study.metrics)))
+              "run on one device):\n\n" + "\n".join(time_to(by_label, study.metrics)))
   if reference is not None:
     rows = against({labels[name]: curves[name] for name in curves}, reference.name,
                    reference.rows, study.metrics)

@@ -109,7 +109,7 @@ def ant_on_ball():
   goal = dict(reward_type="root_goal", sdcomp="vel", indices=(0, 1), target_goal=(3.0, 0.0),
               offset=4.0)
   return dict(
-      global_options=dict(ANT_OPTIONS, substeps=4, iterations=4),
+      global_options=dict(ANT_OPTIONS, **PRO_ANT_STEPS["blx"], iterations=4),
       components=dict(
           agent1=dict(component="pro_ant", component_params=dict(num_legs=4),
                       pos=(0.0, 0.0, 6.0), term_params=dict(z_offset=6.0),
