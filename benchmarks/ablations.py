@@ -4,7 +4,7 @@ row, trained with the row's protocol, compared by curves and by a Welch test aga
     python benchmarks/ablations.py STUDY [--env ant|humanoid|halfcheetah] [--seeds 10]
                                          [--out sweeps/ablations] [--steps N] [--arm VALUE]
                                          [--objective NAME] [--config JSON]
-                                         [--reference NAME=PATH]
+                                         [--reference NAME=PATH ...]
     python benchmarks/ablations.py STUDY --report    # only the curves and table of what has run
 
 Studies (``--list`` prints them):
@@ -22,14 +22,15 @@ Studies (``--list`` prints them):
   learns the same at the same env steps (``--steps`` below the paper's fits a device call);
 - ``push_scale``, ``legs`` (the paper's Composer sweeps, ``--env ant``): the task reward of
   ``ant_push`` with the ball's velocity term scaled by 1 (the env's default), 0.2 and 0.5, and of
-  ``pro_ant_run`` with 4 (the registered env's), 2, 3, 8 and 10 legs, compared by episode score (the
-  paper: Ant Push is sensitive to the scale; running is consistent except with two legs). The
-  original's sweeps at the paper's commit trained each point for the ant's PPO row (30 M steps,
-  ``ant_push_sweep.py``) and the row x 10 (300 M, ``ant_run_morphology_sweep.py``); ``--steps``
-  trains another budget, and the report then says so;
-- ``legs_original``: ``legs`` at the original's physics step (``pro_ant_run``'s
-  ``step="original"``, 16 substeps of 1.25 ms where blx's default steps 4 of 5 ms; 3.3 times the
-  cost per env step), where three legs run markedly better (RESULTS, session 27);
+  ``pro_ant_run(step="blx")`` with 4 (the registered env's), 2, 3, 8 and 10 legs, compared by
+  episode score (the paper: Ant Push is sensitive to the scale; running is consistent except with
+  two legs). The original's sweeps at the paper's commit trained each point for the ant's PPO row
+  (30 M steps, ``ant_push_sweep.py``) and the row x 10 (300 M, ``ant_run_morphology_sweep.py``);
+  ``--steps`` trains another budget, and the report then says so. ``legs`` runs blx's faster step
+  (4 substeps of 5 ms), the env's default until session 28;
+- ``legs_original``: the leg-count sweep at the original's physics step (``pro_ant_run``'s
+  ``step="original"``, 16 substeps of 1.25 ms, the env's default since session 28; 3.3 to 3.9
+  times the cost per env step), where three legs run markedly better (RESULTS, sessions 27, 28);
 - ``legs_step`` (``--env ant``; not the paper's): the three-legged ``pro_ant_run`` at blx's step (4
   substeps of 5 ms) and at the original's (16 of 1.25 ms), the same 0.02 s control step: whether
   the step is why three legs fall short of the paper (RESULTS, session 26).
@@ -42,11 +43,12 @@ objectives, ``--objective``) lets one process per GPU train one arm and a last c
 directories, ``curves.png`` (each metric against env steps, mean and std over seeds per arm) and
 ``ablation.md`` (each arm's final metrics, mean +- std over seeds, Welch's t-test against the first
 arm). ``--reference NAME=PATH`` adds another run trained with ``--eval-metrics`` (its directory or
-metrics.csv; e.g. a finished row trained with another setting): its curve is drawn over the arms'
-span, and each arm's last evaluation is tested against the reference's at the same env steps. So an
-arm run for a fraction of a row's steps is compared with the row where the row was. Where the
-reference has its eval.json, each arm's final evaluation is also tested against it: so a study
-whose row has run before (``--arm`` the other values) is compared with that row.
+metrics.csv; e.g. a finished row trained with another setting; up to three, each its own
+``--reference``): its curve is drawn over the arms' span, and each arm's last evaluation is tested
+against the reference's at the same env steps. So an arm run for a fraction of a row's steps is
+compared with the row where the row was. Where the reference has its eval.json, each arm's final
+evaluation is also tested against it: so a study whose row has run before (``--arm`` the other
+values) is compared with that row.
 """
 
 from __future__ import annotations
@@ -104,7 +106,8 @@ class Study:
     line = f"{'the paper' if self.paper else 'tested (not a claim of the paper)'}: {self.claim}"
     if self.scene_params:
       shared = ", ".join(f"{k}={v!r}" for k, v in self.scene_params.items())
-      line += f"; every arm: {self.scene}({shared})"
+      line += f"; every arm: {self.scene}({shared})" + (" before its edits"
+                                                        if self.option == "edits" else "")
     return line
 
   def settings(self, run_spec) -> dict:
@@ -123,9 +126,10 @@ CHEETAH_FAST_STEP = {"global_options.timestep": 0.00625, "global_options.substep
 _STEP_CLAIM = "8 substeps of 6.25 ms learn what blx's 16 of 3.125 ms learn, at the same env steps"
 _STEP_LABELS = ("blx's step: 16 x 3.125 ms", "8 x 6.25 ms")
 
-# The original's pro_ant_run step, 16 substeps of 1.25 ms, where blx steps 4 of 5 ms (the same
-# 0.02 s): on three legs, which fall short of the paper at blx's step. The arms are edits rather
-# than the env's ``step`` parameter: the edits name the run directories of the study's first run.
+# The original's pro_ant_run step, 16 substeps of 1.25 ms, where blx's steps 4 of 5 ms (the same
+# 0.02 s): on three legs, which fall short of the paper at blx's step. The arms are edits of
+# ``pro_ant_run(step="blx")`` rather than the env's ``step`` parameter: the edits name the run
+# directories of the study's first run (session 26, when blx's step was the env's default).
 _THREE_LEGS = {"components.agent1.component_params.num_legs": 3}
 PRO_ANT_ORIGINAL_STEP = {f"global_options.{k}": v for k, v in PRO_ANT_STEPS["original"].items()}
 # A Composer task's score sums a per-step term, so an episode cut short by a fall scores higher:
@@ -162,6 +166,7 @@ STUDIES = {
     "legs": Study("task", ("task",), "num_legs", (4, 2, 3, 8, 10), _TASK_METRICS,
                   "running is consistent across leg counts except with two legs",
                   group="env_params", envs=("ant",), scene="pro_ant_run", multiplier=10,
+                  scene_params={"step": "blx"},
                   labels=("4 legs (the env's)", "2 legs", "3 legs", "8 legs", "10 legs")),
     "legs_original": Study("task", ("task",), "num_legs", (4, 2, 3, 8, 10), _TASK_METRICS,
                            "running is consistent across leg counts except with two legs",
@@ -172,7 +177,7 @@ STUDIES = {
                        (_THREE_LEGS, {**_THREE_LEGS, **PRO_ANT_ORIGINAL_STEP}), _TASK_METRICS,
                        "three legs run as well at the original's 16 x 1.25 ms step as at blx's "
                        "4 x 5 ms", group="env_params", envs=("ant",), scene="pro_ant_run",
-                       multiplier=10, paper=False,
+                       multiplier=10, paper=False, scene_params={"step": "blx"},
                        labels=("3 legs, blx's step: 4 x 5 ms", "3 legs, 16 x 1.25 ms")),
 }
 
@@ -267,7 +272,9 @@ def against(curves: dict[str, list[dict]], name: str, reference: list[dict],
             metrics: tuple[str, ...]) -> list[str]:
   """Markdown rows: each arm's last evaluation in its metrics.csv (where every seed has a value)
   against the evaluation of ``reference`` (another run's metrics.csv rows, e.g. a finished row's)
-  at the same env steps, Welch's t-test. ``curves``: ``{arm label: metrics.csv rows}``."""
+  at the same env steps, Welch's t-test. Where the reference was not evaluated at the arm's last
+  steps (another evaluation grid), the last steps both were evaluated at, named beside the arm's
+  last. ``curves``: ``{arm label: metrics.csv rows}``."""
   rows = [f"| arm | metric | env steps | arm: mean ± std (seeds) | {name}: mean ± std (seeds) "
           "| Welch t | p |", "| --- | --- | ---: | ---: | ---: | ---: | ---: |"]
   ref_by_key = {key: _by_step(reference, key) for key in metrics}
@@ -277,11 +284,14 @@ def against(curves: dict[str, list[dict]], name: str, reference: list[dict],
       steps = _complete(by_step)
       if not steps:
         continue
-      step = steps[-1]
-      values = list(by_step[step].values())
       ref_by_step = ref_by_key[key]
+      shared = [s for s in steps if ref_by_step.get(s)]
+      step = shared[-1] if shared else steps[-1]
+      values = list(by_step[step].values())
       mean, std = paper_tables.mean_std(values)
-      cells = [label, key, f"{step / 1e6:.2f} M", f"{mean:.3f} ± {std:.3f} ({len(values)})"]
+      at = f"{step / 1e6:.2f} M" + ("" if step == steps[-1] else
+                                    f" (the arm's last: {steps[-1] / 1e6:.2f} M)")
+      cells = [label, key, at, f"{mean:.3f} ± {std:.3f} ({len(values)})"]
       ref = list(ref_by_step.get(step, {}).values())
       if not ref:
         near = sorted(ref_by_step, key=lambda s: abs(s - step))[:2]
@@ -387,15 +397,18 @@ def read_reference(name: str, path: str, metrics: tuple[str, ...]) -> Reference:
   return Reference(name, rows, final)
 
 
+REFERENCE_STYLES = ("--", ":", "-.")  # one line style per reference, all dark grey
+
+
 def report(study_name: str, study: Study, directory: str, sweep_spec: dict,
-           reference: Reference | None = None) -> str:
+           references: tuple[Reference, ...] | list[Reference] = ()) -> str:
   """Draws ``curves.png`` and writes ``ablation.md`` for the arms of ``sweep_spec`` under
   ``directory``: those evaluated, and those still training (a metrics.csv but no eval.json), drawn
   as unfinished and compared with the others during training, at the last env steps all of them
   reached (also where no arm is evaluated yet: a stopped run's curves are not lost).
-  ``reference``, another run (``read_reference``), is drawn over the arms' span of env steps and
-  compared with each arm's last evaluation during training; where it has its eval.json, also each
-  arm's final evaluation with its own."""
+  Each of ``references``, other runs (``read_reference``), is drawn over the arms' span of env
+  steps and compared with each arm's last evaluation during training; where it has its eval.json,
+  also each arm's final evaluation with its own."""
   import matplotlib
   matplotlib.use("Agg")
   import matplotlib.pyplot as plt
@@ -428,14 +441,14 @@ def report(study_name: str, study: Study, directory: str, sweep_spec: dict,
       ax.plot(x, mean, label=labels[name])
       ax.fill_between(x, [m - s for m, s in zip(mean, std)], [m + s for m, s in zip(mean, std)],
                       alpha=0.2)
-    if reference is not None:
+    for reference, style in zip(references, REFERENCE_STYLES):
       steps, mean, std = curve(reference.rows, key)
       shown = [(s / 1e6, m, d) for s, m, d in zip(steps, mean, std) if s <= span]
       if shown:
         x, m, d = zip(*shown)
-        ax.plot(x, m, "k--", label=reference.name)
+        ax.plot(x, m, style, color="0.2", label=reference.name)
         ax.fill_between(x, [a - b for a, b in zip(m, d)], [a + b for a, b in zip(m, d)],
-                        color="k", alpha=0.1)
+                        color="k", alpha=0.08)
     ax.set_xlabel("env steps per seed (millions)")
     ax.set_title(LABELS.get(key, key))
     plots.value_axis(ax, key)
@@ -457,7 +470,7 @@ def report(study_name: str, study: Study, directory: str, sweep_spec: dict,
     table += ("\n\nWall time to the first arm's last evaluation during training (mean over "
               "seeds), from each run's start, compilation and evaluations included (compare arms "
               "run on one device):\n\n" + "\n".join(time_to(by_label, study.metrics)))
-  if reference is not None:
+  for reference in references:
     rows = against({labels[name]: curves[name] for name in curves}, reference.name,
                    reference.rows, study.metrics)
     table += (f"\n\nEach arm's last evaluation during training against {reference.name} at the "
@@ -488,10 +501,11 @@ def main():
                       help="train only the arms of this objective (e.g. airl in the gp study)")
   parser.add_argument("--config", default=None, metavar="JSON",
                       help="PPO settings over the row's for every arm, e.g. '{\"num_evals\": 12}'")
-  parser.add_argument("--reference", default=None, metavar="NAME=PATH",
+  parser.add_argument("--reference", action="append", default=[], metavar="NAME=PATH",
                       help="another run (its directory or metrics.csv, trained with "
                            "--eval-metrics) to draw beside the arms and compare with each arm's "
-                           "last evaluation at the same env steps, e.g. a finished row")
+                           "last evaluation at the same env steps, e.g. a finished row; up to "
+                           f"{len(REFERENCE_STYLES)}, each its own --reference")
   parser.add_argument("--out", default="sweeps/ablations")
   parser.add_argument("--report", action="store_true", help="only draw and tabulate")
   args = parser.parse_args()
@@ -509,13 +523,17 @@ def main():
       config = paper_tables.ppo_config(args.config, args.env)
     except ValueError as e:
       parser.error(f"--config: {e}")
-  reference = None
-  if args.reference is not None:
-    name, sep, path = args.reference.partition("=")
+  if len(args.reference) > len(REFERENCE_STYLES):
+    parser.error(f"--reference: {len(args.reference)} given; at most {len(REFERENCE_STYLES)}")
+  references = []
+  for given in args.reference:
+    name, sep, path = given.partition("=")
     if not (sep and name and path):
-      parser.error(f"--reference {args.reference!r}: give NAME=PATH")
+      parser.error(f"--reference {given!r}: give NAME=PATH")
+    if name in [r.name for r in references]:
+      parser.error(f"--reference {name!r}: named twice; give each reference its own name")
     try:
-      reference = read_reference(name, path, study.metrics)
+      references.append(read_reference(name, path, study.metrics))
     except ValueError as e:
       parser.error(f"--reference: {e}")
   try:
@@ -523,10 +541,10 @@ def main():
   except ValueError as e:  # an env the study is not defined for
     parser.error(f"{args.study} --env {args.env}: {e}")
   arm_names = [study.label(name, run_spec) for name, run_spec in sweep.expand(sweep_spec)]
-  if reference is not None and reference.name in arm_names:
-    # the tables would mistake the reference for the arm of that name
-    parser.error(f"--reference {reference.name!r}: an arm's name; give another (the arms: "
-                 f"{arm_names})")
+  for reference in references:
+    if reference.name in arm_names:  # the tables would mistake it for the arm of that name
+      parser.error(f"--reference {reference.name!r}: an arm's name; give another (the arms: "
+                   f"{arm_names})")
   if not args.report:
     only = None
     if args.arm:
@@ -546,7 +564,7 @@ def main():
         lambda name, run_spec: ((only is None or study.value(run_spec) in only)
                                 and run_spec.objective in objectives))
     sweep.run_sweep(sweep_spec, directory, select=select, eval_metrics=True)
-  print(report(args.study, study, directory, sweep_spec, reference))
+  print(report(args.study, study, directory, sweep_spec, references))
 
 
 if __name__ == "__main__":

@@ -53,28 +53,32 @@ def ant_run():
               global_options=dict(ANT_OPTIONS))
 
 
-# pro_ant_run's physics steps per 0.02 s control step. "blx", the default: 4 substeps of the ant's
-# 5 ms, a quarter of the original's physics. "original": the original's 16 of 1.25 ms. On three
-# legs the original's learns markedly better (-1,713 against -2,415 episode score at 23 M env
-# steps, p < 0.001, at 3.3x the cost per env step; benchmarks/RESULTS.md, session 27).
+# pro_ant_run's physics steps per 0.02 s control step. "original", the default: the original's 16
+# of 1.25 ms. "blx": 4 substeps of the ant's 5 ms, a quarter of the physics, a third to a quarter of
+# the cost per env step. At the original's step three legs learn markedly better (-1,713 against -2,415 episode
+# score at 23 M env steps, p < 0.001) and four legs learn more per env step (-1,136 against -1,562
+# at 21.8 M, p 0.008); blx's step reaches four legs' level in less wall time (372 s against 588 s)
+# but levels off lower on three (benchmarks/RESULTS.md, sessions 27 and 28).
 PRO_ANT_STEPS = {"blx": dict(timestep=ANT_OPTIONS["timestep"], substeps=4),
                  "original": dict(timestep=0.00125, substeps=16)}
 
 
-def pro_ant_run(num_legs: int = 4, step: str = "blx"):
+def pro_ant_run(num_legs: int = 4, step: str = "original"):
   """Braxlines' ``pro_ant_run``: ``ant_run``'s goal (r = 5 - ||v_xy - (4, 0)||) on a pro_ant of
   ``num_legs`` legs (the paper's morphology sweep: 2, 3, 4, 8, 10), at the original's 0.02 s
   control step.
 
-  ``step`` names the physics step in it (``PRO_ANT_STEPS``): ``"blx"`` (the default, a deviation) is
-  4 substeps of the ant's 5 ms; ``"original"`` is the original's 16 of 1.25 ms, 3.3 times the cost
-  per env step. On three legs the original's step runs markedly better (RESULTS, session 27).
+  ``step`` names the physics step in it (``PRO_ANT_STEPS``): ``"original"`` (the default) is the
+  original's 16 substeps of 1.25 ms; ``"blx"`` (a deviation, an option for speed) is 4 of the ant's
+  5 ms, a third to a quarter of the cost per env step. At blx's step three legs level off far below
+  the original's, and four legs need 2.4 times the env steps for the same score, in about two
+  thirds of the wall time (RESULTS, sessions 27 and 28).
 
   The default of 4 legs is later Braxlines' (``create_pro_ant_run``); at the paper's commit the
   registered env had 10. The sweep names its leg count, so the default does not change it."""
   if not isinstance(step, str) or step not in PRO_ANT_STEPS:
-    raise ValueError(f"pro_ant_run: step={step!r} is not a physics step; valid: 'blx' (4 substeps "
-                     "of 5 ms, the default) or 'original' (16 of 1.25 ms)")
+    raise ValueError(f"pro_ant_run: step={step!r} is not a physics step; valid: 'original' (16 "
+                     "substeps of 1.25 ms, the default) or 'blx' (4 of 5 ms)")
   return dict(components=dict(agent1=dict(component="pro_ant",
                                           component_params=dict(num_legs=num_legs),
                                           reward_fns=dict(goal=_run_goal()))),

@@ -65,7 +65,8 @@ def test_the_composer_sweeps_vary_their_scenes_parameter_on_the_originals_budget
   assert study.values[0] == registered  # the first arm is the registered env
   for _, arm in points:
     assert (arm.env, arm.objective, arm.seeds) == (scene, "task", tuple(range(10)))
-    assert arm.env_params == {study.option: study.value(arm)} and arm.objective_options == {}
+    assert arm.env_params == {**(study.scene_params or {}), study.option: study.value(arm)}
+    assert arm.objective_options == {}
     assert arm.ppo == {"num_timesteps": steps}
   desc = registry.get_desc(scene, **points[1][1].env_params)
   assert points[1][1].env_params[study.option] != registered and desc != registry.get_desc(scene)
@@ -90,7 +91,7 @@ def test_the_step_studies_keep_the_cheetahs_env_step_and_iterations():
     ablations.spec(ablations.STUDIES["step_diayn"], "ant", 2)
 
 
-def test_legs_original_is_the_leg_count_sweep_at_the_originals_step():
+def test_legs_and_legs_original_are_the_leg_count_sweep_at_blxs_step_and_at_the_originals():
   from blx.envs import registry
   coarse, fine = (ablations.STUDIES[name] for name in ("legs", "legs_original"))
   assert (fine.values, fine.labels, fine.claim, fine.paper) == (
@@ -100,11 +101,14 @@ def test_legs_original_is_the_leg_count_sweep_at_the_originals_step():
   assert [name for name, _ in points] == list(plain)  # the same arms, at another step
   for name, arm in points:
     assert arm.env_params == {**plain[name].env_params, "step": "original"}
+    assert plain[name].env_params["step"] == "blx"  # each names its step, not the env's default
     assert arm.ppo == plain[name].ppo == {"num_timesteps": 300_000_000}
-    options = registry.get_desc(arm.env, **arm.env_params)["global_options"]
-    assert (options["timestep"], options["substeps"]) == (0.00125, 16)
-  # the report's header and figure title say so
-  assert fine.claim_line == coarse.claim_line + "; every arm: pro_ant_run(step='original')"
+    for run, want in ((arm, (0.00125, 16)), (plain[name], (0.005, 4))):
+      options = registry.get_desc(run.env, **run.env_params)["global_options"]
+      assert (options["timestep"], options["substeps"]) == want
+  # the reports' headers and figure titles say so
+  assert fine.claim_line == coarse.claim_line.replace("'blx'", "'original'")
+  assert coarse.claim_line.endswith("; every arm: pro_ant_run(step='blx')")
 
 
 def test_the_legs_step_study_runs_three_legs_at_blxs_step_and_at_the_originals():
@@ -115,13 +119,13 @@ def test_the_legs_step_study_runs_three_legs_at_blxs_step_and_at_the_originals()
   assert [arm.env for _, arm in points] == ["pro_ant_run"] * 2
   assert [d["components"]["agent1"]["component_params"]["num_legs"] for d in descs] == [3, 3]
   steps = [(d["global_options"]["timestep"], d["global_options"]["substeps"]) for d in descs]
-  registered = registry.get_desc("pro_ant_run")["global_options"]
-  assert steps[0] == (registered["timestep"], registered["substeps"])
+  assert steps[0] == (0.005, 4)  # blx's step, whatever the env's default
   assert steps[1] == (0.00125, 16)  # the original's pro_ant_run: dt 0.02 in 16 substeps
   assert steps[0][0] * steps[0][1] == pytest.approx(steps[1][0] * steps[1][1]) == 0.02
-  # the arms are the env's two named steps
+  # the arms are the env's two named steps; the header says the edits start from blx's
   for desc, name in zip(descs, ("blx", "original")):
     assert desc == registry.get_desc("pro_ant_run", num_legs=3, step=name)
+  assert study.claim_line.endswith("every arm: pro_ant_run(step='blx') before its edits")
   with pytest.raises(ValueError, match=r"defined for \['ant'\]"):
     ablations.spec(study, "humanoid", 2)
 
@@ -240,7 +244,13 @@ def test_against_tests_each_arms_last_evaluation_against_the_reference_at_the_sa
   want = stats.ttest_ind([1.0, 1.2], [0.4, 0.6, 0.5], equal_var=False)
   assert float(cells[5]) == pytest.approx(want.statistic, abs=0.01)
   assert float(cells[6]) == pytest.approx(want.pvalue, abs=0.001)
-  # A reference never evaluated at the arm's last steps is said so, with its nearest steps.
+  # A reference on another grid: the last steps both were evaluated at, the arm's last named.
+  grid = [{"seed": s, "env_steps": step, "eval/mi": 0.5} for s in (0, 1) for step in (10, 15)]
+  cells = ablations.against({"arm": [dict(r, env_steps=r["env_steps"] * 1e5) for r in arm]},
+                            "the row", [dict(r, env_steps=r["env_steps"] * 1e5) for r in grid],
+                            ("eval/mi",))[2].strip("| ").split(" | ")
+  assert cells[2:5] == ["1.00 M (the arm's last: 2.00 M)", "0.200 ± 0.100 (2)", "0.500 ± 0.000 (2)"]
+  # A reference never evaluated at any of the arm's steps is said so, with its nearest steps.
   off_grid = [dict(r, env_steps=r["env_steps"] + 5e6) for r in reference]
   row = ablations.against({"arm": arm}, "the row", off_grid, ("eval/mi",))[2]
   assert "no evaluation at 0.00 M (nearest: 5.00 M, 5.00 M)" in row
@@ -272,7 +282,7 @@ def test_report_draws_the_reference_and_compares_the_arms_with_it(tmp_path):
   reference = [{"seed": s, "env_steps": step, "eval/mi": 0.1 * step / 1000 + 0.1 * s}
                for s in (0, 1) for step in (1000, 2000, 9000)]
   table = ablations.report("step_diayn", study, str(tmp_path), spec,
-                           ablations.Reference("the row", reference))
+                           [ablations.Reference("the row", reference)])
   assert "against the row at the same env steps" in table
   assert ("| blx's step: 16 x 3.125 ms | eval/mi | 0.00 M | 1.100 ± 0.100 (2) "
           "| 0.250 ± 0.050 (2)") in table
@@ -281,13 +291,51 @@ def test_report_draws_the_reference_and_compares_the_arms_with_it(tmp_path):
   # With the reference's eval.json, each arm's final evaluation is tested against the reference's.
   final = _arm("diayn", [0.2, 0.3, 0.4])
   table = ablations.report("step_diayn", study, str(tmp_path), spec,
-                           ablations.Reference("the row", reference, final))
+                           [ablations.Reference("the row", reference, final)])
   from scipy import stats
   want = stats.ttest_ind([1.0, 1.2], [0.2, 0.3, 0.4], equal_var=False)
   tail = table.split("The final evaluations")[1]
   assert "| the row | eval/mi | 0.300 ± 0.082 (3) |  |  |" in tail
   assert (f"| blx's step: 16 x 3.125 ms | eval/mi | 1.100 ± 0.100 (2) | {want.statistic:+.2f} "
           f"| {want.pvalue:.3f} |") in tail
+
+
+def test_report_draws_and_tests_against_every_reference(tmp_path, monkeypatch):
+  import matplotlib.axes
+  drawn, plot = [], matplotlib.axes.Axes.plot
+  monkeypatch.setattr(matplotlib.axes.Axes, "plot",
+                      lambda self, *a, **k: drawn.append(k.get("label")) or plot(self, *a, **k))
+  study = ablations.STUDIES["step_diayn"]
+  spec = ablations.spec(study, "halfcheetah", 2, steps=2000, config={"num_evals": 2})
+  name = sweep.expand(spec)[0][0]
+  (tmp_path / name).mkdir()
+  _write_metrics(tmp_path / name / "metrics.csv", {(0, 2000): 1.0, (1, 2000): 1.2})
+  low = [{"seed": s, "env_steps": 2000, "eval/mi": 0.2 + 0.1 * s} for s in (0, 1)]
+  high = [{"seed": s, "env_steps": 2000, "eval/mi": 2.0 + 0.2 * s} for s in (0, 1)]
+  table = ablations.report("step_diayn", study, str(tmp_path), spec,
+                           [ablations.Reference("low", low),
+                            ablations.Reference("high", high, _arm("diayn", [2.0, 2.2]))])
+  # each reference's own comparison, with its own values; only "high" has a final evaluation
+  assert "| 1.100 ± 0.100 (2) | 0.250 ± 0.050 (2)" in table.split("against low")[1]
+  assert "| 1.100 ± 0.100 (2) | 2.100 ± 0.100 (2)" in table.split("against high")[1]
+  assert table.count("The final evaluations") == 1
+  assert "first high's" in table
+  assert {"low", "high"} <= set(drawn)  # both drawn beside the arm
+
+
+def test_references_named_twice_or_too_many_are_refused_before_anything_trains(
+    monkeypatch, capsys, tmp_path):
+  _write_metrics(tmp_path / "metrics.csv", {(0, 10): 0.5})
+  trained = []
+  monkeypatch.setattr(sweep, "run_sweep", lambda *a, **k: trained.append(a))
+  for refs, message in ((["a", "a"], "--reference 'a': named twice"),
+                        (["a", "b", "c", "d"], "4 given; at most 3")):
+    argv = [x for name in refs for x in ("--reference", f"{name}={tmp_path}")]
+    monkeypatch.setattr("sys.argv", ["ablations.py", "sn_diayn", "--out", str(tmp_path), *argv])
+    with pytest.raises(SystemExit):
+      ablations.main()
+    assert message in capsys.readouterr().err
+  assert not trained
 
 
 @pytest.mark.parametrize("argv,message", [
