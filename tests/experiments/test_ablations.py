@@ -249,7 +249,8 @@ def test_against_tests_each_arms_last_evaluation_against_the_reference_at_the_sa
   cells = ablations.against({"arm": [dict(r, env_steps=r["env_steps"] * 1e5) for r in arm]},
                             "the row", [dict(r, env_steps=r["env_steps"] * 1e5) for r in grid],
                             ("eval/mi",))[2].strip("| ").split(" | ")
-  assert cells[2:5] == ["1.00 M (the arm's last: 2.00 M)", "0.200 ± 0.100 (2)", "0.500 ± 0.000 (2)"]
+  assert cells[2:5] == ["1.00 M (the arm's last: 2.00 M)", "0.200 ± 0.100 (2)",
+                        "0.500 ± 0.000 (2)"]
   # A reference never evaluated at any of the arm's steps is said so, with its nearest steps.
   off_grid = [dict(r, env_steps=r["env_steps"] + 5e6) for r in reference]
   row = ablations.against({"arm": arm}, "the row", off_grid, ("eval/mi",))[2]
