@@ -466,10 +466,17 @@ def report(study_name: str, study: Study, directory: str, sweep_spec: dict,
   if len(arms) < len(curves):
     table += ("\n\nAn arm is unfinished: every arm's evaluation during training at the last env "
               "steps all of them reached:\n\n" + "\n".join(during(by_label, study.metrics)))
-  if len(curves) > 1 and all(r.get("time") for rows in curves.values() for r in rows):
+  # references that logged their wall time join the table after the arms (the target stays the
+  # first arm's), named as such: they ran in another process, perhaps on another machine
+  timed = {f"{r.name} (reference)": (next(iter(by_label.values()))[0], r.rows)
+           for r in references if r.rows and all(row.get("time") for row in r.rows)}
+  if (len(curves) + len(timed) > 1
+      and all(r.get("time") for rows in curves.values() for r in rows)):
     table += ("\n\nWall time to the first arm's last evaluation during training (mean over "
               "seeds), from each run's start, compilation and evaluations included (compare arms "
-              "run on one device):\n\n" + "\n".join(time_to(by_label, study.metrics)))
+              "run on one device" + ("; a reference ran in a process of its own, perhaps on "
+                                     "another machine" if timed else "") + "):\n\n"
+              + "\n".join(time_to({**by_label, **timed}, study.metrics)))
   for reference in references:
     rows = against({labels[name]: curves[name] for name in curves}, reference.name,
                    reference.rows, study.metrics)

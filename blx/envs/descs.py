@@ -58,7 +58,7 @@ def ant_run():
 # of the cost per env step. At the original's step three legs learn markedly better (-1,713
 # against -2,415 episode score at 23 M env steps, p < 0.001) and four legs learn more per env step
 # (-1,136 against -1,562 at 21.8 M, p 0.008); blx's step reaches four legs' level in less wall
-# time (372 s against 588 s) but levels off lower on three (benchmarks/RESULTS.md, sessions 27
+# time (371 s against 588 s) but levels off lower on three (benchmarks/RESULTS.md, sessions 27
 # and 28).
 PRO_ANT_STEPS = {"blx": dict(timestep=ANT_OPTIONS["timestep"], substeps=4),
                  "original": dict(timestep=0.00125, substeps=16)}

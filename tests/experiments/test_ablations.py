@@ -324,6 +324,30 @@ def test_report_draws_and_tests_against_every_reference(tmp_path, monkeypatch):
   assert {"low", "high"} <= set(drawn)  # both drawn beside the arm
 
 
+def test_a_timed_reference_joins_the_wall_time_table_against_the_first_arms_target(tmp_path):
+  study = ablations.STUDIES["step_diayn"]
+  spec = ablations.spec(study, "halfcheetah", 2, steps=2000, config={"num_evals": 2})
+  name = sweep.expand(spec)[0][0]
+  (tmp_path / name).mkdir()
+  with open(tmp_path / name / "metrics.csv", "w", newline="") as f:
+    w = csv.DictWriter(f, ["seed", "env_steps", "time", "eval/mi"])
+    w.writeheader()
+    for seed in (0, 1):
+      w.writerows([{"seed": seed, "env_steps": 1000, "time": 50, "eval/mi": 0.5},
+                   {"seed": seed, "env_steps": 2000, "time": 90, "eval/mi": 1.0}])
+  # the reference reaches the arm's last MI (1.0) only at its third evaluation, after 30 s
+  timed = [{"seed": s, "env_steps": step, "time": t, "eval/mi": v} for s in (0, 1)
+           for step, t, v in ((500, 10, 0.2), (1500, 20, 0.8), (2500, 30, 1.1))]
+  untimed = [{k: v for k, v in r.items() if k != "time"} for r in timed]
+  table = ablations.report("step_diayn", study, str(tmp_path), spec,
+                           [ablations.Reference("fast", timed),
+                            ablations.Reference("no clock", untimed)])
+  wall = table.split("Wall time")[1]
+  assert "a reference ran in a process of its own" in wall
+  assert "| fast (reference) | eval/mi | 1.000 | 0.00 M | 30 s |" in wall
+  assert "no clock" not in wall.split("\n\nEach arm")[0]  # without a clock it is left out
+
+
 def test_references_named_twice_or_too_many_are_refused_before_anything_trains(
     monkeypatch, capsys, tmp_path):
   _write_metrics(tmp_path / "metrics.csv", {(0, 10): 0.5})
