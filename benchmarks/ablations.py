@@ -359,14 +359,20 @@ def time_to(curves: dict[str, tuple[str, list[dict]]], metrics: tuple[str, ...])
   return rows
 
 
-def budget_line(study: Study, sweep_spec: dict) -> str:
-  """The arms' env steps per seed, and the original's where the arms ran another budget."""
+def budget_line(study: Study, sweep_spec: dict, trained: float | None = None) -> str:
+  """The arms' env steps per seed, and the original's where the arms ran another budget.
+  ``trained``, the env steps the finished arms reached, is named where it is not the budget asked
+  (PPO rounds the budget up to whole iterations in each evaluation chunk)."""
   steps, original = int(sweep_spec["steps"]), study.default_steps(sweep_spec["env"])
   line = f"Env steps per seed: {steps / 1e6:g} M"
   if steps == original:
-    return line + " (the original's)."
-  budget = "shorter" if steps < original else "longer"
-  return line + f"; the original's: {original / 1e6:g} M (a {budget} budget)."
+    line += " (the original's)"
+  else:
+    budget = "shorter" if steps < original else "longer"
+    line += f"; the original's: {original / 1e6:g} M (a {budget} budget)"
+  if trained is not None and abs(trained - steps) > 1e-3 * steps:
+    line += f"; {trained / 1e6:.2f} M trained (whole PPO iterations per evaluation chunk)"
+  return line + "."
 
 
 @dataclasses.dataclass(frozen=True)
@@ -487,9 +493,11 @@ def report(study_name: str, study: Study, directory: str, sweep_spec: dict,
       table += (f"\n\nThe final evaluations (eval.json), first {reference.name}'s (arms of "
                 "another objective are tested against their own first arm):\n\n"
                 + "\n".join(compare(final, study.metrics)))
+  finished = [float(r["env_steps"]) for n in arms for r in curves[n] if r.get("env_steps")]
+  trained = max(finished) if finished else None
   with open(os.path.join(directory, "ablation.md"), "w") as f:
     f.write(f"# {study_name}\n\n{study.claim_line[0].upper()}{study.claim_line[1:]}.\n\n"
-            f"{budget_line(study, sweep_spec)}\n\n{table}\n")
+            f"{budget_line(study, sweep_spec, trained)}\n\n{table}\n")
   return table
 
 

@@ -74,6 +74,13 @@ def test_the_composer_sweeps_vary_their_scenes_parameter_on_the_originals_budget
       f"Env steps per seed: {steps / 1e6:g} M (the original's).")
   assert ablations.budget_line(study, ablations.spec(study, "ant", 2, steps=6_000_000)) == (
       f"Env steps per seed: 6 M; the original's: {steps / 1e6:g} M (a shorter budget).")
+  # the steps the arms reached, where PPO's whole iterations took them past the budget asked
+  assert ablations.budget_line(study, ablations.spec(study, "ant", 2, steps=6_000_000),
+                               6_881_280.0) == (
+      f"Env steps per seed: 6 M; the original's: {steps / 1e6:g} M (a shorter budget); 6.88 M "
+      "trained (whole PPO iterations per evaluation chunk).")
+  assert ablations.budget_line(study, ablations.spec(study, "ant", 2), float(steps)) == (
+      f"Env steps per seed: {steps / 1e6:g} M (the original's).")
   with pytest.raises(ValueError, match=r"defined for \['ant'\]"):
     ablations.spec(study, "humanoid", 2)
 
@@ -289,6 +296,7 @@ def test_report_draws_the_reference_and_compares_the_arms_with_it(tmp_path):
           "| 0.250 ± 0.050 (2)") in table
   assert "final evaluations" not in table  # a reference without its eval.json
   assert os.path.getsize(tmp_path / "curves.png") > 10_000
+  assert "trained (whole" not in (tmp_path / "ablation.md").read_text()  # the 2,000 asked
   # With the reference's eval.json, each arm's final evaluation is tested against the reference's.
   final = _arm("diayn", [0.2, 0.3, 0.4])
   table = ablations.report("step_diayn", study, str(tmp_path), spec,
@@ -297,6 +305,10 @@ def test_report_draws_the_reference_and_compares_the_arms_with_it(tmp_path):
   want = stats.ttest_ind([1.0, 1.2], [0.2, 0.3, 0.4], equal_var=False)
   tail = table.split("The final evaluations")[1]
   assert "| the row | eval/mi | 0.300 ± 0.082 (3) |  |  |" in tail
+  # an arm that trained past the budget asked (whole PPO iterations): the header says how far
+  _write_metrics(tmp_path / name / "metrics.csv", {(0, 2500): 1.0, (1, 2500): 1.2})
+  ablations.report("step_diayn", study, str(tmp_path), spec)
+  assert "; 0.00 M trained (whole PPO" in (tmp_path / "ablation.md").read_text()
   assert (f"| blx's step: 16 x 3.125 ms | eval/mi | 1.100 ± 0.100 (2) | {want.statistic:+.2f} "
           f"| {want.pvalue:.3f} |") in tail
 
