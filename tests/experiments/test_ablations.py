@@ -305,12 +305,12 @@ def test_report_draws_the_reference_and_compares_the_arms_with_it(tmp_path):
   want = stats.ttest_ind([1.0, 1.2], [0.2, 0.3, 0.4], equal_var=False)
   tail = table.split("The final evaluations")[1]
   assert "| the row | eval/mi | 0.300 ± 0.082 (3) |  |  |" in tail
+  assert (f"| blx's step: 16 x 3.125 ms | eval/mi | 1.100 ± 0.100 (2) | {want.statistic:+.2f} "
+          f"| {want.pvalue:.3f} |") in tail
   # an arm that trained past the budget asked (whole PPO iterations): the header says how far
   _write_metrics(tmp_path / name / "metrics.csv", {(0, 2500): 1.0, (1, 2500): 1.2})
   ablations.report("step_diayn", study, str(tmp_path), spec)
   assert "; 0.00 M trained (whole PPO" in (tmp_path / "ablation.md").read_text()
-  assert (f"| blx's step: 16 x 3.125 ms | eval/mi | 1.100 ± 0.100 (2) | {want.statistic:+.2f} "
-          f"| {want.pvalue:.3f} |") in tail
 
 
 def test_report_draws_and_tests_against_every_reference(tmp_path, monkeypatch):
