@@ -406,6 +406,11 @@ def read_reference(name: str, path: str, metrics: tuple[str, ...]) -> Reference:
 REFERENCE_STYLES = ("--", ":", "-.")  # one line style per reference, all dark grey
 
 
+def _timed(rows: list[dict]) -> bool:
+  """Whether a run's metrics.csv rows all carry its wall time (``time``), as blx's runs log it."""
+  return all(row.get("time") for row in rows)
+
+
 def report(study_name: str, study: Study, directory: str, sweep_spec: dict,
            references: tuple[Reference, ...] | list[Reference] = ()) -> str:
   """Draws ``curves.png`` and writes ``ablation.md`` for the arms of ``sweep_spec`` under
@@ -469,23 +474,22 @@ def report(study_name: str, study: Study, directory: str, sweep_spec: dict,
   table = ("\n".join(compare(labelled, study.metrics)) if arms
            else "No arm has its final evaluation (eval.json) yet.")
   by_label = {labels[n]: (objectives[n], rows) for n, rows in curves.items()}
+  by_arm = {label: rows for label, (_, rows) in by_label.items()}
   if len(arms) < len(curves):
     table += ("\n\nAn arm is unfinished: every arm's evaluation during training at the last env "
               "steps all of them reached:\n\n" + "\n".join(during(by_label, study.metrics)))
   # references that logged their wall time join the table after the arms (the target stays the
   # first arm's), named as such: they ran in another process, perhaps on another machine
   timed = {f"{r.name} (reference)": (next(iter(by_label.values()))[0], r.rows)
-           for r in references if r.rows and all(row.get("time") for row in r.rows)}
-  if (len(curves) + len(timed) > 1
-      and all(r.get("time") for rows in curves.values() for r in rows)):
+           for r in references if r.rows and _timed(r.rows)}
+  if len(curves) + len(timed) > 1 and all(_timed(rows) for rows in by_arm.values()):
     table += ("\n\nWall time to the first arm's last evaluation during training (mean over "
               "seeds), from each run's start, compilation and evaluations included (compare arms "
               "run on one device" + ("; a reference ran in a process of its own, perhaps on "
                                      "another machine" if timed else "") + "):\n\n"
               + "\n".join(time_to({**by_label, **timed}, study.metrics)))
   for reference in references:
-    rows = against({labels[name]: curves[name] for name in curves}, reference.name,
-                   reference.rows, study.metrics)
+    rows = against(by_arm, reference.name, reference.rows, study.metrics)
     table += (f"\n\nEach arm's last evaluation during training against {reference.name} at the "
               "same env steps:\n\n" + "\n".join(rows))
     if reference.final is not None:
