@@ -215,15 +215,16 @@ def train(env: Any, objective: Objective, config: PPOConfig, *, seeds: Sequence[
   return TrainResult(params=policy_params(state), metrics=history, policy=trainer.policy, state=state)
 
 
-def drop_env_state(directory: str) -> None:
+def drop_env_state(directory: str, *, compact: bool = False) -> None:
   """Rewrites the checkpoint in ``directory`` without the envs' simulator state, as if the run had
   been trained with ``PPOConfig.checkpoint_env_state=False``: what stays is the parameters,
   optimiser, normaliser and history, a small part of the file (an Ant row: 47 of 51 MB per seed
   are env state). For carrying a run's parameters off a machine once it is done or stopped;
   ``blx eval``, ``blx render`` and ``load_run`` read the result, and a resume starts every env on a
-  new episode. The rewrite is atomic: the whole checkpoint stays until the new one is in place."""
+  new episode. ``compact``: written compact (``checkpoint.save``), smaller still and as exact.
+  The rewrite is atomic: the whole checkpoint stays until the new one is in place."""
   checkpoint.rewrite(directory, keep=lambda key: not key.startswith(".env_state"),
-                     meta_update={"env_state": False})
+                     meta_update={"env_state": False}, compact=compact)
 
 
 PARALLEL_COMPILE_ENV = "BLX_PARALLEL_COMPILE"

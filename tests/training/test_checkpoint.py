@@ -6,6 +6,7 @@ from __future__ import annotations
 import glob
 import json
 import os
+import zlib
 
 import jax.numpy as jnp
 import numpy as np
@@ -125,3 +126,65 @@ def test_checkpoints_of_the_two_file_format_are_still_read(tmp_path):
     json.dump({"chunk": 2, "num_leaves": 3}, f)
   with pytest.raises(CheckpointError, match="from different saves"):
     checkpoint.restore(d, OLD)
+
+
+# Every kind of leaf a TrainState holds, and the corners of the byte regrouping: a 0-d array, an
+# empty one, one-byte and complex dtypes.
+_MIXED = {"params": np.random.default_rng(0).normal(0, 0.1, (256, 64)).astype(np.float32),
+          "mu": np.random.default_rng(1).normal(0, 1e-4, 300).astype(np.float32),
+          "count": np.int32(7), "key": np.array([3, 4294967295], np.uint32),
+          "steps": np.int64(2**40), "done": np.array([True, False]),
+          "half": np.linspace(-2, 2, 9, dtype=np.float16),
+          "z": np.array([1 + 2j, -3j], np.complex64), "empty": np.zeros((0, 5), np.float32)}
+
+
+def _key(name: str) -> str:
+  return f"['{name}']"   # a top-level dict entry's pytree path, as checkpoints key arrays
+
+
+def test_a_compact_checkpoint_holds_exactly_the_same_arrays_in_fewer_bytes(tmp_path):
+  plain, compact = str(tmp_path / "plain"), str(tmp_path / "compact")
+  checkpoint.save(plain, _MIXED, {"chunk": 3})
+  checkpoint.save(compact, _MIXED, {"chunk": 3}, compact=True)
+  for d in (plain, compact):
+    arrays, meta = checkpoint.read_arrays(d)
+    assert meta == {"chunk": 3} and sorted(arrays) == sorted(_key(k) for k in _MIXED)
+    for key, x in _MIXED.items():   # bit for bit, dtype and shape included
+      got = arrays[_key(key)]
+      assert got.dtype == x.dtype and got.shape == x.shape and got.tobytes() == x.tobytes(), key
+    tree, _ = checkpoint.restore(d, _MIXED)   # into a run's structure (as jax arrays)
+    np.testing.assert_array_equal(tree["params"], _MIXED["params"])
+  # The float parameters' sign-and-exponent bytes deflate once side by side; the plain file is
+  # uncompressed. Regrouping alone is what beats deflating the array as it is:
+  assert os.path.getsize(checkpoint.path(compact)) < 0.9 * os.path.getsize(checkpoint.path(plain))
+  rows = checkpoint._regrouped(_MIXED["params"])
+  assert rows.shape == (4, 256 * 64) and len(zlib.compress(rows.tobytes())) < 0.95 * len(
+      zlib.compress(_MIXED["params"].tobytes()))
+
+
+def test_a_rewrite_makes_a_checkpoint_compact_or_plain_and_keeps_its_arrays(tmp_path):
+  d, kept = str(tmp_path), [k for k in _MIXED if k != "mu"]
+  checkpoint.save(d, _MIXED, {"chunk": 1}, compact=True)
+  checkpoint.rewrite(d, keep=lambda key: key != _key("mu"), meta_update={"light": True})  # plain
+  with np.load(checkpoint.path(d)) as f:   # stored as they are: readable without blx
+    assert f[_key("params")].tobytes() == _MIXED["params"].tobytes()
+    assert _key("mu") not in f.files and "__compact__" not in f.files
+  checkpoint.rewrite(d, compact=True)
+  arrays, meta = checkpoint.read_arrays(d)
+  assert meta == {"chunk": 1, "light": True} and sorted(arrays) == sorted(map(_key, kept))
+  assert all(arrays[_key(k)].tobytes() == _MIXED[k].tobytes() for k in kept)
+  with np.load(checkpoint.path(d)) as f:   # regrouped on disk
+    assert f[_key("params")].shape == (4, 256 * 64)
+
+
+def test_a_compact_checkpoint_whose_layout_is_damaged_is_a_named_error(tmp_path):
+  d = str(tmp_path)
+  checkpoint.save(d, _MIXED, {"chunk": 1}, compact=True)
+  with np.load(checkpoint.path(d)) as f:
+    arrays = {k: f[k] for k in f.files}
+  layout = json.loads(arrays["__compact__"].tobytes())
+  layout[_key("params")] = ["<f4", [256, 65]]   # more elements than the bytes hold
+  arrays["__compact__"] = np.frombuffer(json.dumps(layout).encode(), np.uint8)
+  np.savez_compressed(checkpoint.path(d), **arrays)
+  with pytest.raises(CheckpointError, match=r"checkpoint .*checkpoint.npz is damaged"):
+    checkpoint.restore(d, _MIXED)
