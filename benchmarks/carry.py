@@ -1,16 +1,23 @@
-"""Carries runs between machines in parts small enough for a transfer limit: a device call here
-brings back at most 8 files of 16 MiB (64 MiB together), and a row of #15 outlives the machine it
-started on.
+"""Carries runs between machines, and between sessions, in parts small enough for the transfer
+limits: a device call here carries at most 64 MiB there (the working tree included) and brings back
+at most 8 files of 16 MiB (64 MiB together); a machine goes back after 30 minutes held, a session
+has 30 minutes of device time, and a row of #15 outlives both.
 
     python benchmarks/carry.py pack DIR OUT_DIR [--name NAME] [--part-mb 15] [--keep-env-state]
     python benchmarks/carry.py send STAGE OUT_DIR [--call-mib 64] [--call-files 8]
     python benchmarks/carry.py unpack OUT_DIR/NAME.tar.part_* --into DEST
+    python benchmarks/carry.py fits [PATH ...] [--call-mib 64]
+    python benchmarks/carry.py park PARTS ... [--note TEXT]
+    python benchmarks/carry.py parked
+    python benchmarks/carry.py unpark NAME --into DIR
+    python benchmarks/carry.py forget NAME
 
 ``pack`` writes the directory tree ``DIR`` (one run, or a sweep's ``--out`` with its points) as one
 tar stream cut into ``NAME.tar.part_000``, ``_001``, ... of at most ``--part-mb`` MB each. Every
 checkpoint in it goes without the envs' simulator state (``training.drop_env_state``: an Ant or
-half-cheetah row's 464 MB become 33 MB), unless ``--keep-env-state``; ``DIR`` itself is not
-changed. A run resumed from it starts every env on a new episode.
+half-cheetah row's 464 MB become 33 MB), unless ``--keep-env-state``, and compact
+(``checkpoint.save``: lossless, about 15 % smaller again); ``DIR`` itself is not changed. A run
+resumed from it starts every env on a new episode.
 
 ``send`` is for a pack larger than one call brings back (8 files, 64 MiB together): pack into a
 staging directory on the device machine, then let each call end with ``send STAGE $OUT``. It moves
@@ -20,21 +27,43 @@ left for the next call.
 ``unpack`` joins the parts in order and extracts them into ``DEST``, so that ``DEST/<DIR's
 contents>`` is the tree again and the same training command resumes it. It refuses a missing part,
 parts of two packs, and a pack any of whose files ``DEST`` already holds (then it writes nothing).
+
+``fits`` says whether a device call that carries the ``PATH``s (ignored by git, as ``run``'s
+``carry`` takes them) travels: what travels is the working tree's tracked files and the untracked
+ones git does not ignore, plus the carried paths, at most ``--call-mib`` MiB together. It exits
+with 1 where they do not fit, and names the margin either way.
+
+Between sessions nothing survives but the repository's history, so ``park`` keeps a pack there:
+it commits the parts under ``benchmarks/parked/NAME/``, then removes them from the tree in a second
+commit that records the first in ``benchmarks/parked.json`` (with each part's size, SHA-256 and
+git object, by which ``unpark`` reads it).
+The parts then cost the repository's history their size, and no later call's carry anything.
+``park`` refuses a pack that is not whole (a missing or cut part), a name already parked, and a
+repository with staged changes (they would go into its commit). ``unpark NAME --into DIR`` writes
+the parts back from that commit, checking every one against its recorded SHA-256, ready to carry;
+``parked`` lists what is parked, and ``forget NAME`` drops a finished pack from the ledger (its
+parts stay in the history; commit the ledger with the run's results).
 """
 
 from __future__ import annotations
 
 import argparse
+import datetime
+import hashlib
 import io
 import json
 import os
 import re
 import shutil
+import subprocess
 import tarfile
 import tempfile
+from typing import NamedTuple
 
 MB = 1_000_000
 MIB = 1 << 20
+PARKED_DIR = os.path.join("benchmarks", "parked")  # where park commits a pack's parts, in a repo
+LEDGER = os.path.join("benchmarks", "parked.json")  # which commit holds each parked pack
 MANIFEST = ".carry-manifest.json"  # the pack's last member: the files it holds, so that a pack
 # cut short between two members (a lost last part) is told from a whole one
 _PART = re.compile(r"^(?P<name>.+)\.tar\.part_(?P<index>\d{3,})$")
@@ -113,9 +142,10 @@ def checkpoints(directory: str) -> list[str]:
 def pack(directory: str, out_dir: str, name: str, *, part_mb: float = 15,
          keep_env_state: bool = False) -> list[str]:
   """Writes the tree ``directory`` as the parts ``out_dir/name.tar.part_NNN`` (each at most
-  ``part_mb`` MB), its checkpoints without the envs' state unless ``keep_env_state``; returns the
-  parts' paths. ``directory`` is left as it was."""
+  ``part_mb`` MB), its checkpoints compact and without the envs' state unless ``keep_env_state``;
+  returns the parts' paths. ``directory`` is left as it was."""
   from blx import training
+  from blx.training import checkpoint
   if not os.path.isdir(directory):
     raise CarryError(f"pack: {directory!r} is not a directory")
   if not part_mb > 0:
@@ -132,12 +162,13 @@ def pack(directory: str, out_dir: str, name: str, *, part_mb: float = 15,
     raise CarryError(f"pack: {out_dir} already holds parts of {name!r} ({sorted(stale)[0]}, ...); "
                      "remove them or choose another --name, so that no part of two packs mixes")
   with tempfile.TemporaryDirectory() as stage:
-    tree = directory
-    if not keep_env_state:
-      tree = os.path.join(stage, "tree")
-      shutil.copytree(directory, tree, ignore=shutil.ignore_patterns("*.tmp"))
-      for found in checkpoints(tree):
-        training.drop_env_state(found)
+    tree = os.path.join(stage, "tree")
+    shutil.copytree(directory, tree, ignore=shutil.ignore_patterns("*.tmp"))
+    for found in checkpoints(tree):
+      if keep_env_state:
+        checkpoint.rewrite(found, compact=True)
+      else:
+        training.drop_env_state(found, compact=True)
     writer = _PartWriter(os.path.join(out_dir, name), int(part_mb * MB))
     try:
       with tarfile.open(fileobj=writer, mode="w|") as tar:
@@ -205,13 +236,9 @@ def _ordered(parts: list[str]) -> list[str]:
   return [indexed[i] for i in range(len(indexed))]
 
 
-def unpack(parts: list[str], dest: str) -> list[str]:
-  """Extracts the pack ``parts`` into ``dest``; returns the top-level entries it wrote. All or
-  nothing: the pack is extracted beside ``dest``'s files first, and where any of its files exists
-  in ``dest`` already, nothing is moved in."""
-  ordered = _ordered(parts)
-  os.makedirs(dest, exist_ok=True)
-  stage = tempfile.mkdtemp(prefix=".carry-", dir=dest)
+def _extract(ordered: list[str], stage: str) -> list[str]:
+  """Extracts the pack whose parts are ``ordered`` into the empty directory ``stage`` and checks it
+  against its list of files; returns that list (the list itself is not left in ``stage``)."""
   reader = _PartReader(ordered)
   try:
     try:
@@ -222,23 +249,41 @@ def unpack(parts: list[str], dest: str) -> list[str]:
           else:  # pragma: no cover - Python before 3.11.4
             tar.extract(member, stage)
     except getattr(tarfile, "FilterError", ()) as e:
-      raise CarryError(f"unpack: the parts {ordered[0]} .. {ordered[-1]} hold an entry that would "
-                       f"land outside --into ({e}); they are not a pack that carry.py wrote") from None
+      raise CarryError(f"the parts {ordered[0]} .. {ordered[-1]} hold an entry that would land "
+                       f"outside the folder it is extracted into ({e}); they are not a pack that "
+                       "carry.py wrote") from None
     except tarfile.ReadError as e:
-      raise CarryError(f"unpack: the parts {ordered[0]} .. {ordered[-1]} are not a whole pack "
-                       f"({e}); was a part cut short?") from None
-    manifest = os.path.join(stage, MANIFEST)
-    if not os.path.exists(manifest):
-      raise CarryError(f"unpack: the parts {ordered[0]} .. {ordered[-1]} are not a whole pack (its "
-                       "list of files, the last thing packed, is not there); is a last part "
-                       "missing or cut short?")
-    with open(manifest) as f:
-      files = json.load(f)["files"]
-    os.remove(manifest)
-    got = _files(stage)
-    if got != files:
-      raise CarryError(f"unpack: the parts hold {len(got)} files where the pack lists "
-                       f"{len(files)}; they are not the pack that was written")
+      raise CarryError(f"the parts {ordered[0]} .. {ordered[-1]} are not a whole pack ({e}); was "
+                       "a part cut short?") from None
+  finally:
+    reader.close()
+  manifest = os.path.join(stage, MANIFEST)
+  if not os.path.exists(manifest):
+    raise CarryError(f"the parts {ordered[0]} .. {ordered[-1]} are not a whole pack (its list of "
+                     "files, the last thing packed, is not there); is a last part missing or cut "
+                     "short?")
+  with open(manifest) as f:
+    files = json.load(f)["files"]
+  os.remove(manifest)
+  got = _files(stage)
+  if got != files:
+    raise CarryError(f"the parts hold {len(got)} files where the pack lists {len(files)}; they are "
+                     "not the pack that was written")
+  return files
+
+
+def unpack(parts: list[str], dest: str) -> list[str]:
+  """Extracts the pack ``parts`` into ``dest``; returns the top-level entries it wrote. All or
+  nothing: the pack is extracted beside ``dest``'s files first, and where any of its files exists
+  in ``dest`` already, nothing is moved in."""
+  ordered = _ordered(parts)
+  os.makedirs(dest, exist_ok=True)
+  stage = tempfile.mkdtemp(prefix=".carry-", dir=dest)
+  try:
+    try:
+      files = _extract(ordered, stage)
+    except CarryError as e:
+      raise CarryError(f"unpack: {e}") from None
     clashes = [f for f in files if os.path.lexists(os.path.join(dest, f))]
     if clashes:
       raise CarryError(f"unpack: {os.path.join(dest, clashes[0])} exists ({len(clashes)} of the "
@@ -253,8 +298,205 @@ def unpack(parts: list[str], dest: str) -> list[str]:
       os.replace(os.path.join(stage, f), os.path.join(dest, f))
     return top
   finally:
-    reader.close()
     shutil.rmtree(stage, ignore_errors=True)
+
+
+# --------------------------------------------------------------------------------------------------
+# What a call carries, and packs kept between sessions in the repository's history.
+
+def _git(repo: str, *args: str, binary: bool = False):
+  """``git -C repo args``' standard output (text, stripped, or bytes); a CarryError naming the
+  command and git's message where it fails."""
+  try:
+    done = subprocess.run(["git", "-C", repo, *args], capture_output=True, check=False)
+  except FileNotFoundError:
+    raise CarryError("git is not installed; this command needs it") from None
+  if done.returncode:
+    raise CarryError(f"git {' '.join(args)} (in {repo}) failed: "
+                     f"{done.stderr.decode(errors='replace').strip()}")
+  return done.stdout if binary else done.stdout.decode().strip()
+
+
+def _root(repo: str) -> str:
+  """The top of the git working tree holding ``repo``."""
+  if not os.path.isdir(repo):
+    raise CarryError(f"{repo!r} is not a directory")
+  try:
+    return _git(repo, "rev-parse", "--show-toplevel")
+  except CarryError:
+    raise CarryError(f"{os.path.abspath(repo)!r} is not inside a git working tree") from None
+
+
+def _size(path: str) -> int:
+  """Bytes of the file ``path``, or of every file under the directory ``path`` (links as links)."""
+  if not os.path.isdir(path) or os.path.islink(path):
+    return os.lstat(path).st_size
+  return sum(os.lstat(os.path.join(root, f)).st_size
+             for root, _, names in os.walk(path) for f in names)
+
+
+class Fit(NamedTuple):
+  """What one device call would carry, in bytes."""
+  tree: int                       # tracked files and untracked ones git does not ignore
+  tree_files: int
+  carried: list[tuple[str, int]]  # (path as given, bytes) of every carried path
+  limit: int
+
+  @property
+  def total(self) -> int:
+    return self.tree + sum(size for _, size in self.carried)
+
+  @property
+  def fits(self) -> bool:
+    return self.total <= self.limit
+
+
+def fits(paths: list[str], *, repo: str = ".", call_mib: float = 64) -> Fit:
+  """What a device call from ``repo``'s working tree that carries ``paths`` (ignored by git) would
+  carry, against ``call_mib`` MiB. A checkout's own ``shared/`` travels too and is counted."""
+  root = _root(repo)
+  listed = _git(root, "ls-files", "-z", "--cached", "--others", "--exclude-standard")
+  files = [os.path.join(root, f) for f in listed.split("\0") if f]
+  files = [f for f in files if os.path.lexists(f)]  # a tracked file deleted in the tree stays here
+  if os.path.isdir(os.path.join(root, "shared")):
+    seen = set(files)
+    files += [os.path.join(r, f) for r, _, names in os.walk(os.path.join(root, "shared"))
+              for f in names if os.path.join(r, f) not in seen]
+  carried = []
+  for path in paths:
+    if not os.path.lexists(path):
+      raise CarryError(f"fits: {path!r} does not exist")
+    inside = os.path.relpath(os.path.abspath(path), root)
+    if inside.startswith(".."):
+      raise CarryError(f"fits: {path!r} lies outside the working tree {root}; a call carries only "
+                       "paths inside it (copy it into an ignored folder of the tree)")
+    ignored = subprocess.run(["git", "-C", root, "check-ignore", "-q", "--", inside],
+                             capture_output=True).returncode == 0
+    if not ignored:
+      raise CarryError(f"fits: {path!r} is not ignored by git, so it travels with the tree "
+                       "already; a call's carry names ignored paths (add it to .git/info/exclude)")
+    carried.append((path, _size(path)))
+  return Fit(sum(os.lstat(f).st_size for f in files), len(files), carried, int(call_mib * MIB))
+
+
+def _sha256(data: bytes) -> str:
+  return hashlib.sha256(data).hexdigest()
+
+
+def read_ledger(repo: str = ".") -> dict:
+  """``benchmarks/parked.json`` of ``repo``: ``{name: {commit, path, parts: [{file, bytes, sha256,
+  blob}], note, parked}}``; empty where nothing was ever parked. ``blob`` is the part's git object,
+  read by ``unpark`` (it stays the same where commits are rewritten); ``commit`` says where it
+  was committed."""
+  path = os.path.join(_root(repo), LEDGER)
+  if not os.path.exists(path):
+    return {}
+  with open(path) as f:
+    return json.load(f)
+
+
+def _write_ledger(root: str, ledger: dict) -> None:
+  path = os.path.join(root, LEDGER)
+  os.makedirs(os.path.dirname(path), exist_ok=True)
+  with open(path + ".tmp", "w") as f:
+    json.dump(ledger, f, indent=2, sort_keys=True)
+    f.write("\n")
+  os.replace(path + ".tmp", path)
+
+
+def park(parts: list[str], *, repo: str = ".", note: str = "") -> str:
+  """Keeps the whole pack ``parts`` in ``repo``'s history (see the module's docstring); returns the
+  commit that holds the parts. Makes two commits; the tree ends as it began, but for the ledger."""
+  ordered = _ordered(parts)
+  name = _PART.match(os.path.basename(ordered[0]))["name"]
+  with tempfile.TemporaryDirectory() as check:
+    try:
+      _extract(ordered, check)
+    except CarryError as e:
+      raise CarryError(f"park: {e}; a pack that is not whole is not parked") from None
+  root = _root(repo)
+  ledger = read_ledger(root)
+  if name in ledger:
+    raise CarryError(f"park: a pack named {name!r} is parked already (commit "
+                     f"{ledger[name]['commit'][:10]}); pack under another --name, or forget the "
+                     "parked one once its run is done")
+  staged = _git(root, "diff", "--cached", "--name-only")
+  if staged:
+    raise CarryError(f"park: {root} has staged changes ({staged.splitlines()[0]}, ...); commit or "
+                     "unstage them first, since park commits")
+  rel = f"{PARKED_DIR}/{name}".replace(os.sep, "/")
+  where = os.path.join(root, rel)
+  if os.path.lexists(where):
+    raise CarryError(f"park: {where} exists already; move it away first")
+  os.makedirs(where)
+  entries = []
+  for part in ordered:
+    with open(part, "rb") as f:
+      data = f.read()
+    with open(os.path.join(where, os.path.basename(part)), "wb") as f:
+      f.write(data)
+    entries.append(dict(file=os.path.basename(part), bytes=len(data), sha256=_sha256(data)))
+  size = sum(e["bytes"] for e in entries)
+  _git(root, "add", "-f", "--", rel)
+  _git(root, "commit", "-q", "-m", f"carry.py park {name}: {len(entries)} parts, {size / MB:.1f} "
+       "MB, kept in the history (the next commit takes them out of the tree)")
+  commit = _git(root, "rev-parse", "HEAD")
+  for entry in entries:  # the parts' contents by name, which no rewrite of commits changes
+    entry["blob"] = _git(root, "rev-parse", f"{commit}:{rel}/{entry['file']}")
+  _git(root, "rm", "-r", "-q", "--", rel)
+  ledger[name] = dict(commit=commit, path=rel, parts=entries, note=note,
+                      parked=datetime.date.today().isoformat())
+  _write_ledger(root, ledger)
+  _git(root, "add", "--", LEDGER)
+  _git(root, "commit", "-q", "-m", f"carry.py park {name}: the parts leave the tree; {LEDGER} "
+       f"names {commit[:10]}, which holds them")
+  return commit
+
+
+def unpark(name: str, into: str, *, repo: str = ".") -> list[str]:
+  """Writes the parts of the parked pack ``name`` into ``into`` from the commit that holds them,
+  each checked against its recorded size and SHA-256; returns their paths. All or nothing."""
+  root = _root(repo)
+  ledger = read_ledger(root)
+  if name not in ledger:
+    raise CarryError(f"unpark: no pack named {name!r} is parked; parked: "
+                     f"{', '.join(sorted(ledger)) or 'none'}")
+  entry = ledger[name]
+  targets = [os.path.join(into, p["file"]) for p in entry["parts"]]
+  there = [t for t in targets if os.path.lexists(t)]
+  if there:
+    raise CarryError(f"unpark: {there[0]} exists; nothing was written. Unpark into another --into")
+  blobs = []
+  for part in entry["parts"]:
+    try:
+      data = _git(root, "cat-file", "blob", part["blob"], binary=True)
+    except CarryError as e:
+      raise CarryError(f"unpark: {part['file']} (blob {part['blob'][:10]} of commit "
+                       f"{entry['commit'][:10]}) cannot be read ({e}); where the clone is shallow, "
+                       "`git fetch --unshallow` brings the history") from None
+    if len(data) != part["bytes"] or _sha256(data) != part["sha256"]:
+      raise CarryError(f"unpark: {part['file']} at {entry['commit'][:10]} is not the part that was "
+                       "parked (its size or SHA-256 differs); nothing was written")
+    blobs.append(data)
+  os.makedirs(into, exist_ok=True)
+  for target, data in zip(targets, blobs):
+    with open(target + ".tmp", "wb") as f:
+      f.write(data)
+    os.replace(target + ".tmp", target)
+  return targets
+
+
+def forget(name: str, *, repo: str = ".") -> dict:
+  """Drops ``name`` from the ledger (not committed; its parts stay in the history); returns its
+  entry."""
+  root = _root(repo)
+  ledger = read_ledger(root)
+  if name not in ledger:
+    raise CarryError(f"forget: no pack named {name!r} is parked; parked: "
+                     f"{', '.join(sorted(ledger)) or 'none'}")
+  entry = ledger.pop(name)
+  _write_ledger(root, ledger)
+  return entry
 
 
 def main(argv: list[str] | None = None) -> None:
@@ -277,6 +519,23 @@ def main(argv: list[str] | None = None) -> None:
   u = sub.add_parser("unpack", help="extract parts into --into")
   u.add_argument("parts", nargs="+")
   u.add_argument("--into", required=True, help="the directory the tree lands in")
+  f = sub.add_parser("fits", help="whether a call carrying PATHs (ignored by git) travels")
+  f.add_argument("paths", nargs="*")
+  f.add_argument("--call-mib", type=float, default=64,
+                 help="what one call carries, the working tree included, in MiB (default 64)")
+  f.add_argument("--repo", default=".", help="the checkout the call is made from (default .)")
+  k = sub.add_parser("park", help="keep a whole pack in the repository's history")
+  k.add_argument("parts", nargs="+")
+  k.add_argument("--note", default="", help="what the pack is and how to resume it")
+  k.add_argument("--repo", default=".")
+  sub.add_parser("parked", help="list the parked packs").add_argument("--repo", default=".")
+  n = sub.add_parser("unpark", help="write a parked pack's parts into --into")
+  n.add_argument("name")
+  n.add_argument("--into", required=True, help="the directory the parts land in")
+  n.add_argument("--repo", default=".")
+  g = sub.add_parser("forget", help="drop a parked pack from the ledger (its run is done)")
+  g.add_argument("name")
+  g.add_argument("--repo", default=".")
   args = parser.parse_args(argv)
   try:
     if args.command == "pack":
@@ -292,8 +551,41 @@ def main(argv: list[str] | None = None) -> None:
             f"{os.path.basename(moved[-1])}; "
             + (f"{len(left)} left in {args.stage}: send again in the next call" if left
                else "none left"))
-    else:
+    elif args.command == "unpack":
       print(f"unpacked into {args.into}: {', '.join(unpack(args.parts, args.into))}")
+    elif args.command == "fits":
+      fit = fits(args.paths, repo=args.repo, call_mib=args.call_mib)
+      print(f"the working tree: {fit.tree / MIB:.1f} MiB ({fit.tree_files} files)")
+      for path, size in fit.carried:
+        print(f"{path}: {size / MIB:.1f} MiB")
+      margin = (fit.limit - fit.total) / MIB
+      print(f"together {fit.total / MIB:.1f} MiB: "
+            + (f"fits the {args.call_mib:g} MiB a call carries, {margin:.1f} MiB to spare"
+               if fit.fits else f"over the {args.call_mib:g} MiB a call carries by {-margin:.1f} "
+               "MiB"))
+      if not fit.fits:
+        parser.exit(1)
+    elif args.command == "park":
+      commit = park(args.parts, repo=args.repo, note=args.note)
+      print(f"parked in commit {commit[:10]} (two commits made); `carry.py unpark NAME --into DIR` "
+            "brings the parts back")
+    elif args.command == "parked":
+      ledger = read_ledger(args.repo)
+      for name, entry in sorted(ledger.items()):
+        size = sum(p["bytes"] for p in entry["parts"])
+        print(f"{name}: {len(entry['parts'])} parts, {size / MB:.1f} MB, commit "
+              f"{entry['commit'][:10]}, parked {entry['parked']}"
+              + (f": {entry['note']}" if entry["note"] else ""))
+      if not ledger:
+        print("nothing is parked")
+    elif args.command == "unpark":
+      paths = unpark(args.name, args.into, repo=args.repo)
+      print(f"unparked {len(paths)} parts into {args.into}: {os.path.basename(paths[0])} .. "
+            f"{os.path.basename(paths[-1])}")
+    else:
+      entry = forget(args.name, repo=args.repo)
+      print(f"forgot {args.name} (commit {entry['commit'][:10]} keeps its parts); commit "
+            f"{LEDGER}")
   except CarryError as e:
     parser.exit(2, f"carry.py: {e}\n")
 

@@ -3,19 +3,27 @@ envs' state unless asked; refusals of parts that are not one whole pack and of a
 land on existing files."""
 
 import io
+import json
 import os
+import pathlib
+import subprocess
+import sys
 import tarfile
+import zipfile
 from typing import NamedTuple
 
 import numpy as np
 import pytest
 
+from blx import training
 from blx.training import checkpoint
 from tests.experiments import load_benchmark
 
 carry = load_benchmark("carry")
 
 PART_MB = 0.01  # 10 kB parts, so that the tree below needs several
+# The envs' state of the tree below: 80 kB of floats that deflate little, as a simulator's do.
+ENV_STATE = np.random.default_rng(0).normal(0, 1, 20_000).astype(np.float32)
 
 
 class _State(NamedTuple):  # pytree paths .env_state and .params, as a TrainState's
@@ -30,15 +38,20 @@ def _tree(root) -> str:
   os.makedirs(run)
   (run / "config.json").write_text('{"objective": "diayn"}')
   (run / "metrics.csv").write_text("seed,env_steps\n0,5\n")
-  state = _State(env_state=np.arange(20_000, dtype=np.float32),
+  state = _State(env_state=ENV_STATE,
                  params=np.linspace(-1, 1, 500, dtype=np.float32))
   checkpoint.save(str(run / "checkpoint"), state, {"env_state": True, "history": []})
   return str(root / "src")
 
 
 def _arrays(run_dir) -> dict:
+  return checkpoint.read_arrays(os.path.join(run_dir, "checkpoint"))[0]
+
+
+def _compact(run_dir) -> bool:
+  """Whether the run's checkpoint is written compact (its arrays regrouped on disk)."""
   with np.load(os.path.join(run_dir, "checkpoint", checkpoint.FILE)) as f:
-    return {k: f[k] for k in f.files if k != "__meta__"}
+    return "__compact__" in f.files
 
 
 def test_a_pack_unpacks_to_the_tree_without_the_env_state_in_parts_within_the_limit(tmp_path):
@@ -60,8 +73,9 @@ def test_a_pack_unpacks_to_the_tree_without_the_env_state_in_parts_within_the_li
   assert list(arrays) == [".params"]
   np.testing.assert_array_equal(arrays[".params"], np.linspace(-1, 1, 500, dtype=np.float32))
   assert checkpoint.read_meta(str(run / "checkpoint"))["env_state"] is False
+  assert _compact(str(run))
   # The packed tree is left as it was, and the staging folder is gone.
-  assert sorted(_arrays(old)) == [".env_state", ".params"]
+  assert sorted(_arrays(old)) == [".env_state", ".params"] and not _compact(old)
   assert os.listdir(tmp_path / "dest") == ["mimax"]
 
 
@@ -69,8 +83,25 @@ def test_keep_env_state_carries_the_whole_checkpoint(tmp_path):
   parts = carry.pack(_tree(tmp_path), str(tmp_path / "out"), "full", part_mb=PART_MB,
                      keep_env_state=True)
   carry.unpack(parts, str(tmp_path / "dest"))
-  arrays = _arrays(str(tmp_path / "dest" / "mimax" / "objective=diayn"))
-  np.testing.assert_array_equal(arrays[".env_state"], np.arange(20_000, dtype=np.float32))
+  run = str(tmp_path / "dest" / "mimax" / "objective=diayn")
+  arrays = _arrays(run)
+  assert arrays[".env_state"].tobytes() == ENV_STATE.tobytes()
+  assert _compact(run)
+
+
+def test_a_packs_checkpoints_are_compact_the_same_arrays_in_fewer_bytes(tmp_path):
+  """Parameters as training leaves them (small floats of one scale): the pack is smaller than the
+  same tree's checkpoint written plain, and unpacks to the same bits."""
+  src = tmp_path / "src" / "run"
+  params = np.random.default_rng(0).normal(0, 0.05, 250_000).astype(np.float32)
+  checkpoint.save(str(src / "checkpoint"), _State(np.zeros(1, np.float32), params),
+                  {"env_state": True})
+  training.drop_env_state(str(src / "checkpoint"))   # what pack sent before it compacted
+  plain = os.path.getsize(src / "checkpoint" / checkpoint.FILE)
+  parts = carry.pack(str(tmp_path / "src"), str(tmp_path / "out"), "p")
+  assert sum(os.path.getsize(p) for p in parts) < 0.9 * plain
+  carry.unpack(parts, str(tmp_path / "dest"))
+  assert _arrays(str(tmp_path / "dest" / "run"))[".params"].tobytes() == params.tobytes()
 
 
 def test_parts_that_are_not_one_whole_pack_are_refused(tmp_path):
@@ -140,7 +171,7 @@ def test_an_entry_that_would_land_outside_the_destination_is_refused(tmp_path):
     info = tarfile.TarInfo("../outside.txt")
     info.size = len(payload)
     tar.addfile(info, io.BytesIO(payload))
-  with pytest.raises(carry.CarryError, match="would land outside --into"):
+  with pytest.raises(carry.CarryError, match="would land outside the folder it is extracted"):
     carry.unpack([str(out / "evil.tar.part_000")], str(tmp_path / "dest"))
   assert not (tmp_path / "outside.txt").exists() and os.listdir(tmp_path / "dest") == []
 
@@ -194,3 +225,192 @@ def test_send_names_what_is_wrong(tmp_path, capsys):
   assert e.value.code == 2 and "is not a directory" in capsys.readouterr().err
   carry.main(["send", str(stage), str(tmp_path / "out")])
   assert "none left" in capsys.readouterr().out
+
+
+def _git(repo, *args) -> str:
+  return subprocess.run(["git", "-C", str(repo), *args], check=True, capture_output=True,
+                        text=True).stdout.strip()
+
+
+def _repo(path) -> pathlib.Path:
+  """A git repository with one commit of a 3,000-byte file, ``runs/`` ignored."""
+  os.makedirs(path)
+  _git(path, "init", "-q")
+  _git(path, "config", "user.name", "t")
+  _git(path, "config", "user.email", "t@example.com")
+  (path / "code.py").write_bytes(b"x" * 3_000)
+  (path / ".gitignore").write_text("runs/\n")
+  _git(path, "add", ".")
+  _git(path, "commit", "-q", "-m", "first")
+  return path
+
+
+def test_fits_counts_the_tree_and_the_carried_paths_against_the_calls_limit(tmp_path, capsys):
+  repo = _repo(tmp_path / "repo")
+  (repo / "notes.txt").write_bytes(b"y" * 1_000)   # untracked, not ignored: it travels
+  os.makedirs(repo / "runs" / "hc")
+  (repo / "runs" / "hc" / "part").write_bytes(b"z" * 5_000)   # ignored: only when carried
+  fit = carry.fits([], repo=str(repo))
+  assert (fit.tree, fit.tree_files) == (3_000 + 1_000 + len("runs/\n"), 3) and fit.fits
+  fit = carry.fits([str(repo / "runs" / "hc")], repo=str(repo), call_mib=9_000 / carry.MIB)
+  assert fit.carried == [(str(repo / "runs" / "hc"), 5_000)] and fit.total == 9_006
+  assert not fit.fits   # 6 bytes over
+  with pytest.raises(SystemExit) as e:
+    carry.main(["fits", str(repo / "runs" / "hc"), "--repo", str(repo), "--call-mib",
+                str(9_000 / carry.MIB)])
+  assert e.value.code == 1 and "over the" in capsys.readouterr().out
+  with pytest.raises(carry.CarryError, match="not ignored by git, so it travels with the tree"):
+    carry.fits([str(repo / "notes.txt")], repo=str(repo))
+  with pytest.raises(carry.CarryError, match="does not exist"):
+    carry.fits([str(repo / "runs" / "nothing")], repo=str(repo))
+  with pytest.raises(carry.CarryError, match="lies outside the working tree"):
+    carry.fits([str(tmp_path)], repo=str(repo))
+
+
+def test_a_parked_pack_leaves_the_tree_and_comes_back_whole_in_a_fresh_clone(tmp_path, capsys):
+  repo = _repo(tmp_path / "repo")
+  parts = carry.pack(_tree(tmp_path), str(tmp_path / "out"), "hc", part_mb=PART_MB)
+  before = _git(repo, "rev-parse", "HEAD")
+  commit = carry.park(parts, repo=str(repo), note="HalfCheetah GCRL at 31 M; resume with ...")
+  # Two commits: the parts in the first, out of the tree in the second, which writes the ledger.
+  assert _git(repo, "rev-list", "--count", f"{before}..HEAD") == "2"
+  assert _git(repo, "rev-parse", "HEAD~1") == commit
+  held = _git(repo, "ls-tree", "-r", "--name-only", commit)
+  assert all(f"benchmarks/parked/hc/{os.path.basename(p)}" in held for p in parts)
+  now = _git(repo, "ls-tree", "-r", "--name-only", "HEAD").split()
+  assert sorted(now) == [".gitignore", "benchmarks/parked.json", "code.py"]
+  assert not (repo / "benchmarks" / "parked").exists() and _git(repo, "status", "--short") == ""
+  assert carry.fits([], repo=str(repo)).tree < 3_000 + 1_000   # no call carries the parts
+  entry = carry.read_ledger(str(repo))["hc"]
+  assert entry["commit"] == commit and [p["file"] for p in entry["parts"]] == [
+      os.path.basename(p) for p in parts]
+  carry.main(["parked", "--repo", str(repo)])
+  assert f"hc: {len(parts)} parts" in capsys.readouterr().out
+
+  clone = tmp_path / "clone"   # the next session's checkout: the history, nothing else
+  subprocess.run(["git", "clone", "-q", str(repo), str(clone)], check=True)
+  # The parts are read by their git objects, which stay where a landing rewrites the commits.
+  ledger = carry.read_ledger(str(clone))
+  ledger["hc"]["commit"] = "0" * 40
+  (clone / carry.LEDGER).write_text(json.dumps(ledger))
+  back = carry.unpark("hc", str(clone / "runs" / "carry"), repo=str(clone))
+  assert [open(a, "rb").read() for a in back] == [open(p, "rb").read() for p in parts]
+  carry.unpack(back, str(tmp_path / "dest"))
+  run = tmp_path / "dest" / "mimax" / "objective=diayn"
+  np.testing.assert_array_equal(_arrays(str(run))[".params"],
+                                np.linspace(-1, 1, 500, dtype=np.float32))
+  with pytest.raises(carry.CarryError, match="exists; nothing was written"):
+    carry.unpark("hc", str(clone / "runs" / "carry"), repo=str(clone))
+
+  assert carry.forget("hc", repo=str(clone))["parts"][0]["file"] == "hc.tar.part_000"
+  assert carry.read_ledger(str(clone)) == {}
+  with pytest.raises(carry.CarryError, match="no pack named 'hc' is parked; parked: none"):
+    carry.unpark("hc", str(tmp_path / "again"), repo=str(clone))
+
+
+def test_park_refuses_a_broken_pack_a_name_parked_twice_and_staged_changes(tmp_path):
+  repo = _repo(tmp_path / "repo")
+  parts = carry.pack(_tree(tmp_path), str(tmp_path / "out"), "hc", part_mb=PART_MB)
+  head = _git(repo, "rev-parse", "HEAD")
+  stream = b"".join(open(p, "rb").read() for p in parts)
+  short = tmp_path / "short" / "hc.tar.part_000"   # its last parts lost: no list of its files
+  os.makedirs(short.parent)
+  short.write_bytes(stream[:stream.index(carry.MANIFEST.encode())])
+  with pytest.raises(carry.CarryError, match="park: .*not a whole pack.*is not parked"):
+    carry.park([str(short)], repo=str(repo))
+  (repo / "code.py").write_text("changed")
+  _git(repo, "add", "code.py")
+  with pytest.raises(carry.CarryError, match="staged changes \\(code.py, ...\\)"):
+    carry.park(parts, repo=str(repo))
+  assert _git(repo, "rev-parse", "HEAD") == head   # nothing was committed
+  _git(repo, "commit", "-q", "-m", "the user's own change")
+  carry.park(parts, repo=str(repo))
+  with pytest.raises(carry.CarryError, match="'hc' is parked already"):
+    carry.park(parts, repo=str(repo))
+
+
+def test_unpark_refuses_a_part_that_is_not_the_one_parked(tmp_path):
+  repo = _repo(tmp_path / "repo")
+  parts = carry.pack(_tree(tmp_path), str(tmp_path / "out"), "hc", part_mb=PART_MB)
+  carry.park(parts, repo=str(repo))
+  ledger = carry.read_ledger(str(repo))
+  ledger["hc"]["parts"][1]["sha256"] = "0" * 64
+  (repo / carry.LEDGER).write_text(json.dumps(ledger))
+  into = tmp_path / "into"
+  with pytest.raises(carry.CarryError, match="part_001 at .* is not the part that was parked"):
+    carry.unpark("hc", str(into), repo=str(repo))
+  assert not into.exists()   # all or nothing
+  ledger["hc"]["parts"][0]["blob"] = "f" * 40   # an object this clone lacks
+  (repo / carry.LEDGER).write_text(json.dumps(ledger))
+  with pytest.raises(carry.CarryError, match="part_000 .*cannot be read .*git fetch --unshallow"):
+    carry.unpark("hc", str(into), repo=str(repo))
+
+
+_SCRIPT = pathlib.Path(carry.__file__).with_name("device_call.sh")
+
+
+def _device_call(cwd, out, *args) -> subprocess.CompletedProcess:
+  """benchmarks/device_call.sh run in ``cwd`` as on the device: this Python first on the path, the
+  repository importable, the stage and the wheels' site under ``cwd``."""
+  env = {**os.environ, "OUT": str(out), "STAGE_ROOT": str(cwd), "SITE_DIR": str(cwd / "site"),
+         "PATH": os.path.dirname(sys.executable) + os.pathsep + os.environ["PATH"],
+         "PYTHONPATH": str(_SCRIPT.parents[1])}
+  return subprocess.run(["bash", str(_SCRIPT), *map(str, args)], cwd=cwd, env=env,
+                        capture_output=True, text=True)
+
+
+def _wheel(folder) -> None:
+  """A one-module wheel, ``blxprobe`` (``blxprobe.X == 1``), in ``folder``: a carried wheel."""
+  os.makedirs(folder)
+  info = "blxprobe-0.1.dist-info"
+  files = {"blxprobe.py": "X = 1\n",
+           f"{info}/METADATA": "Metadata-Version: 2.1\nName: blxprobe\nVersion: 0.1\n",
+           f"{info}/WHEEL": "Wheel-Version: 1.0\nGenerator: test\nRoot-Is-Purelib: true\n"
+                            "Tag: py3-none-any\n"}
+  files[f"{info}/RECORD"] = "".join(f"{name},,\n" for name in [*files, f"{info}/RECORD"])
+  with zipfile.ZipFile(folder / "blxprobe-0.1-py3-none-any.whl", "w") as wheel:
+    for name, text in files.items():
+      wheel.writestr(name, text)
+
+
+def test_a_device_call_resumes_from_carried_parts_and_sends_the_run_back(tmp_path):
+  device = tmp_path / "device"
+  carry.pack(_tree(tmp_path), str(device / ".carry"), "hc", part_mb=PART_MB)
+  _wheel(device / ".whl-train")
+  # The "training": imports the carried wheel, checks that the run was rebuilt from the parts,
+  # then adds to it.
+  train = ("import os, blxprobe; r = 'runs/hc/mimax/objective=diayn'; "
+           "assert os.path.exists(r + '/checkpoint/checkpoint.npz'); "
+           "open(r + '/metrics.csv', 'a').write('0,10\\n'); print('trained')")
+  done = _device_call(device, tmp_path / "out", "hc", "runs/hc", 60, sys.executable, "-c", train)
+  assert done.returncode == 0, done.stderr + done.stdout
+  log = (tmp_path / "out" / "hc.log").read_text()
+  assert "unpacked into runs/hc" in log and "trained" in log and "exit status 0" in log
+  assert "installed .whl-train" in log and (device / "site" / "blxprobe.py").exists()
+  back = sorted(str(p) for p in (tmp_path / "out").glob("hc.tar.part_*"))
+  assert back
+  carry.unpack(back, str(tmp_path / "home"))
+  run = tmp_path / "home" / "mimax" / "objective=diayn"
+  assert (run / "metrics.csv").read_text() == "seed,env_steps\n0,5\n0,10\n"
+  np.testing.assert_array_equal(_arrays(str(run))[".params"],
+                                np.linspace(-1, 1, 500, dtype=np.float32))
+
+  # A second call on the same machine keeps the run it left (the parts are not unpacked over
+  # it); one that outlasts its seconds is interrupted, and what it had is still sent back.
+  slow = "import time; open('runs/hc/late', 'w').write('x'); time.sleep(30)"
+  done = _device_call(device, tmp_path / "out2", "hc", "runs/hc", 1, sys.executable, "-c", slow)
+  assert done.returncode == 124
+  log = (tmp_path / "out2" / "hc.log").read_text()
+  assert "unpacked" not in log and "installed" not in log and "exit status 124" in log
+  carry.unpack(sorted(str(p) for p in (tmp_path / "out2").glob("hc.tar.part_*")),
+               str(tmp_path / "home2"))
+  assert (tmp_path / "home2" / "late").read_text() == "x"
+  assert (tmp_path / "home2" / "mimax" / "objective=diayn" / "metrics.csv").read_text().endswith(
+      "0,10\n")
+
+
+def test_a_device_call_names_a_bad_call(tmp_path):
+  done = _device_call(tmp_path, tmp_path / "out", "hc", "runs/hc", "ten", "true")
+  assert done.returncode == 2 and "SECONDS must be a whole number" in done.stderr
+  done = _device_call(tmp_path, tmp_path / "out", "hc", "runs/hc")
+  assert done.returncode == 2 and "usage:" in done.stderr

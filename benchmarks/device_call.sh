@@ -1,0 +1,89 @@
+#!/usr/bin/env bash
+# The body of one device call of a run that outlives calls, machines and sessions.
+#
+#   bash benchmarks/device_call.sh NAME RUN_DIR SECONDS COMMAND [ARG ...]
+#
+# Run from the repository's root on the device machine; $OUT is the call's output folder.
+# 1. Wheels: where .whl-train/ (or else .whl/) was carried and /tmp/site is not yet filled, they
+#    are installed there once per machine; /tmp/site and the tree go on PYTHONPATH.
+# 2. Resume: where RUN_DIR does not exist and $CARRY_DIR (default .carry) holds NAME's parts
+#    (NAME.tar.part_*, as `carry.py unpark NAME --into .carry` writes them here, carried with the
+#    call), they are unpacked into RUN_DIR. A RUN_DIR left by an earlier call on the same machine
+#    is kept as it is, and wins.
+# 3. Train: COMMAND runs (it must train RUN_DIR, resuming it where it exists), logged to
+#    $OUT/NAME.log, and is interrupted (SIGINT, then killed 30 s later) SECONDS after it starts:
+#    the run keeps its last whole checkpoint, written after every evaluation.
+# 4. Carry back: RUN_DIR is packed (`carry.py pack`: checkpoints compact, without the envs' state)
+#    and its parts go to $OUT beside the log, so that a machine lost after the call loses
+#    nothing; `carry.py park FILES_AT/NAME.tar.part_*` on the CPU machine keeps the last call's
+#    pack for the next session. Parts that do not fit the call's return (8 files, 64 MiB) stay in
+#    /tmp/stage-NAME, and `send` says so: a call of `python3 benchmarks/carry.py send
+#    /tmp/stage-NAME $OUT` alone brings them, before the next call packs the run anew.
+#
+# The exit status is COMMAND's (124 or 130 when interrupted at SECONDS), or 2 for a bad call.
+set -uo pipefail
+if [ $# -lt 4 ]; then
+  echo "usage: bash benchmarks/device_call.sh NAME RUN_DIR SECONDS COMMAND [ARG ...]" >&2
+  exit 2
+fi
+name=$1 run_dir=$2 seconds=$3
+shift 3
+case $seconds in
+  ''|*[!0-9]*) echo "device_call: SECONDS must be a whole number of seconds, got '$seconds'" >&2
+               exit 2 ;;
+esac
+if [ -z "${OUT:-}" ]; then
+  echo "device_call: \$OUT, the folder whose files come back, is not set" >&2
+  exit 2
+fi
+out=$OUT
+here=$(cd "$(dirname "$0")" && pwd)
+carry_dir=${CARRY_DIR:-.carry}
+stage=${STAGE_ROOT:-/tmp}/stage-$name
+site=${SITE_DIR:-/tmp/site}
+mkdir -p "$out"
+log=$out/$name.log
+
+# 1. Wheels, once per machine; calls side by side (one per GPU) install them once, in turn.
+mkdir -p "$(dirname "$site")"
+for _ in $(seq 120); do mkdir "$site.lock" 2>/dev/null && break; sleep 1; done
+for wheels in .whl-train .whl; do
+  if [ -d "$wheels" ] && ! [ -e "$site/.blx-installed" ]; then
+    if ! python3 -m pip install -q --no-index --no-deps --no-compile --no-cache-dir --upgrade \
+        --target "$site" "$wheels"/*.whl >> "$log" 2>&1; then
+      rmdir "$site.lock"
+      echo "device_call: installing $wheels into $site failed (see $log)" >&2
+      exit 2
+    fi
+    touch "$site/.blx-installed"
+    echo "[device_call] installed $wheels into $site" | tee -a "$log"
+    break
+  fi
+done
+rmdir "$site.lock" 2>/dev/null
+export PYTHONPATH=$site:$PWD${PYTHONPATH:+:$PYTHONPATH} PYTHONUNBUFFERED=1
+
+# 2. Resume from carried parts.
+if ! [ -e "$run_dir" ]; then
+  parts=$(ls "$carry_dir/$name".tar.part_* 2>/dev/null)
+  if [ -n "$parts" ]; then
+    # shellcheck disable=SC2086  # the parts' names hold no spaces (carry.py writes them)
+    python3 "$here/carry.py" unpack $parts --into "$run_dir" 2>&1 | tee -a "$log" || exit 2
+  else
+    echo "[device_call] $run_dir is new: no parts of $name in $carry_dir" | tee -a "$log"
+  fi
+fi
+
+# 3. Train until the deadline.
+echo "[device_call] $(date -u +%FT%TZ) running for at most ${seconds} s: $*" | tee -a "$log"
+timeout -s INT -k 30 "$seconds" "$@" >> "$log" 2>&1
+status=$?
+echo "[device_call] $(date -u +%FT%TZ) exit status $status" | tee -a "$log"
+
+# 4. Carry back.
+if [ -d "$run_dir" ]; then
+  rm -rf "$stage"
+  python3 "$here/carry.py" pack "$run_dir" "$stage" --name "$name" 2>&1 | tee -a "$log" \
+    && python3 "$here/carry.py" send "$stage" "$out" 2>&1 | tee -a "$log"
+fi
+exit $status
