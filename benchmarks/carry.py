@@ -379,6 +379,10 @@ def fits(paths: list[str], *, repo: str = ".", call_mib: float = 64) -> Fit:
   return Fit(sum(os.lstat(f).st_size for f in files), len(files), carried, int(call_mib * MIB))
 
 
+def _parts(n: int) -> str:
+  return f"{n} part" + ("" if n == 1 else "s")
+
+
 def _sha256(data: bytes) -> str:
   return hashlib.sha256(data).hexdigest()
 
@@ -438,8 +442,8 @@ def park(parts: list[str], *, repo: str = ".", note: str = "") -> str:
     entries.append(dict(file=os.path.basename(part), bytes=len(data), sha256=_sha256(data)))
   size = sum(e["bytes"] for e in entries)
   _git(root, "add", "-f", "--", rel)
-  _git(root, "commit", "-q", "-m", f"carry.py park {name}: {len(entries)} parts, {size / MB:.1f} "
-       "MB, kept in the history (the next commit takes them out of the tree)")
+  _git(root, "commit", "-q", "-m", f"carry.py park {name}: {_parts(len(entries))}, "
+       f"{size / MB:.1f} MB, kept in the history (the next commit takes them out of the tree)")
   commit = _git(root, "rev-parse", "HEAD")
   for entry in entries:  # the parts' contents by name, which no rewrite of commits changes
     entry["blob"] = _git(root, "rev-parse", f"{commit}:{rel}/{entry['file']}")
@@ -542,12 +546,12 @@ def main(argv: list[str] | None = None) -> None:
       name = args.name or os.path.basename(os.path.normpath(args.directory))
       paths = pack(args.directory, args.out_dir, name, part_mb=args.part_mb,
                    keep_env_state=args.keep_env_state)
-      print(f"wrote {len(paths)} parts, {sum(os.path.getsize(p) for p in paths) / MB:.1f} MB: "
+      print(f"wrote {_parts(len(paths))}, {sum(os.path.getsize(p) for p in paths) / MB:.1f} MB: "
             f"{paths[0]} .. {paths[-1]}")
     elif args.command == "send":
       moved, left = send(args.stage, args.out_dir, call_mib=args.call_mib,
                          call_files=args.call_files)
-      print(f"sent {len(moved)} parts: {os.path.basename(moved[0])} .. "
+      print(f"sent {_parts(len(moved))}: {os.path.basename(moved[0])} .. "
             f"{os.path.basename(moved[-1])}; "
             + (f"{len(left)} left in {args.stage}: send again in the next call" if left
                else "none left"))
@@ -573,14 +577,14 @@ def main(argv: list[str] | None = None) -> None:
       ledger = read_ledger(args.repo)
       for name, entry in sorted(ledger.items()):
         size = sum(p["bytes"] for p in entry["parts"])
-        print(f"{name}: {len(entry['parts'])} parts, {size / MB:.1f} MB, commit "
+        print(f"{name}: {_parts(len(entry['parts']))}, {size / MB:.1f} MB, commit "
               f"{entry['commit'][:10]}, parked {entry['parked']}"
               + (f": {entry['note']}" if entry["note"] else ""))
       if not ledger:
         print("nothing is parked")
     elif args.command == "unpark":
       paths = unpark(args.name, args.into, repo=args.repo)
-      print(f"unparked {len(paths)} parts into {args.into}: {os.path.basename(paths[0])} .. "
+      print(f"unparked {_parts(len(paths))} into {args.into}: {os.path.basename(paths[0])} .. "
             f"{os.path.basename(paths[-1])}")
     else:
       entry = forget(args.name, repo=args.repo)

@@ -10,9 +10,12 @@
 #    (NAME.tar.part_*, as `carry.py unpark NAME --into .carry` writes them here, carried with the
 #    call), they are unpacked into RUN_DIR. A RUN_DIR left by an earlier call on the same machine
 #    is kept as it is, and wins.
-# 3. Train: COMMAND runs (it must train RUN_DIR, resuming it where it exists), logged to
-#    $OUT/NAME.log, and is interrupted (SIGINT, then killed 30 s later) SECONDS after it starts:
-#    the run keeps its last whole checkpoint, written after every evaluation.
+# 3. Train: COMMAND runs (it must train RUN_DIR, resuming it where it exists: the studies,
+#    ablations.py, paper_tables.py and `blx sweep`, resume by themselves; `blx train` needs
+#    `--resume RUN_DIR` from the second call on), logged to $OUT/NAME.log, and is interrupted
+#    (SIGINT, then killed 30 s later) SECONDS after it starts: the run keeps its last whole
+#    checkpoint, written after every evaluation. Leave the call's 600 s room for that and the
+#    pack: SECONDS 540 at most.
 # 4. Carry back: RUN_DIR is packed (`carry.py pack`: checkpoints compact, without the envs' state)
 #    and its parts go to $OUT beside the log, so that a machine lost after the call loses
 #    nothing; `carry.py park FILES_AT/NAME.tar.part_*` on the CPU machine keeps the last call's
