@@ -6,10 +6,12 @@
 # Run from the repository's root on the device machine; $OUT is the call's output folder.
 # 1. Wheels: where .whl-train/ (or else .whl/) was carried and /tmp/site is not yet filled, they
 #    are installed there once per machine; /tmp/site and the tree go on PYTHONPATH.
-# 2. Resume: where RUN_DIR does not exist and $CARRY_DIR (default .carry) holds NAME's parts
-#    (NAME.tar.part_*, as `carry.py unpark NAME --into .carry` writes them here, carried with the
-#    call), they are unpacked into RUN_DIR. A RUN_DIR left by an earlier call on the same machine
-#    is kept as it is, and wins.
+# 2. Resume: where RUN_DIR does not exist and .carry/NAME/ holds NAME's parts (NAME.tar.part_*,
+#    as `carry.py unpark NAME --into .carry/NAME` writes them, carried with this call or an
+#    earlier one on the same machine: a call carrying .carry/B leaves .carry/A there), they are
+#    unpacked into RUN_DIR. A RUN_DIR left by an earlier call on the same machine is kept as it
+#    is, and wins. $CARRY_ROOT moves .carry. With RESUME=1 a call that finds neither refuses
+#    (status 3) rather than start the run anew: give it for a parked run.
 # 3. Train: COMMAND runs (it must train RUN_DIR, resuming it where it exists: the studies,
 #    ablations.py, paper_tables.py and `blx sweep`, resume by themselves; `blx train` needs
 #    `--resume RUN_DIR` from the second call on), logged to $OUT/NAME.log, and is interrupted
@@ -23,7 +25,8 @@
 #    /tmp/stage-NAME, and `send` says so: a call of `python3 benchmarks/carry.py send
 #    /tmp/stage-NAME $OUT` alone brings them, before the next call packs the run anew.
 #
-# The exit status is COMMAND's (124 or 130 when interrupted at SECONDS), or 2 for a bad call.
+# The exit status is COMMAND's (124 when interrupted at SECONDS), 2 for a bad call, or 3 where
+# RESUME=1 finds nothing to resume.
 set -uo pipefail
 if [ $# -lt 4 ]; then
   echo "usage: bash benchmarks/device_call.sh NAME RUN_DIR SECONDS COMMAND [ARG ...]" >&2
@@ -41,7 +44,7 @@ if [ -z "${OUT:-}" ]; then
 fi
 out=$OUT
 here=$(cd "$(dirname "$0")" && pwd)
-carry_dir=${CARRY_DIR:-.carry}
+carry_dir=${CARRY_ROOT:-.carry}/$name
 stage=${STAGE_ROOT:-/tmp}/stage-$name
 site=${SITE_DIR:-/tmp/site}
 mkdir -p "$out"
@@ -72,6 +75,10 @@ if ! [ -e "$run_dir" ]; then
   if [ -n "$parts" ]; then
     # shellcheck disable=SC2086  # the parts' names hold no spaces (carry.py writes them)
     python3 "$here/carry.py" unpack $parts --into "$run_dir" 2>&1 | tee -a "$log" || exit 2
+  elif [ "${RESUME:-0}" = 1 ]; then
+    echo "device_call: RESUME=1, but neither $run_dir nor parts of $name in $carry_dir are" \
+      "here; carry $carry_dir (carry.py unpark $name --into $carry_dir)" | tee -a "$log" >&2
+    exit 3
   else
     echo "[device_call] $run_dir is new: no parts of $name in $carry_dir" | tee -a "$log"
   fi

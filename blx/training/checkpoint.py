@@ -70,8 +70,9 @@ def _keyed_leaves(tree: Any) -> list[tuple[str, Any]]:
 
 
 def save(directory: str, tree: Any, meta: dict, *, compact: bool = False) -> None:
-  """Writes ``tree``'s leaves (keyed by pytree path) and ``meta`` (JSON-able) as one file, atomically;
-  ``compact``: regrouped and deflated (see the module's docstring), smaller and slower to write."""
+  """Writes ``tree``'s leaves (keyed by pytree path) and ``meta`` (JSON-able) as one file,
+  atomically; ``compact``: regrouped and deflated (see the module's docstring), smaller and slower
+  to write."""
   arrays = {key: np.asarray(x) for key, x in _keyed_leaves(jax.device_get(tree))}
   if (_META_KEY in arrays or _LAYOUT_KEY in arrays
       or len(arrays) != len(jax.tree.leaves(tree))):
@@ -100,7 +101,7 @@ def _regrouped(x: np.ndarray) -> np.ndarray:
 
 
 def _ungrouped(rows: np.ndarray, dtype: str, shape: list[int]) -> np.ndarray:
-  """The inverse of ``_regrouped``: the array of ``dtype`` and ``shape`` whose bytes ``rows`` are."""
+  """The inverse of ``_regrouped``: the array of ``dtype`` and ``shape`` made of ``rows``' bytes."""
   return np.ascontiguousarray(rows.T).view(np.dtype(dtype)).reshape(shape)
 
 

@@ -349,12 +349,12 @@ def test_unpark_refuses_a_part_that_is_not_the_one_parked(tmp_path):
 _SCRIPT = pathlib.Path(carry.__file__).with_name("device_call.sh")
 
 
-def _device_call(cwd, out, *args) -> subprocess.CompletedProcess:
+def _device_call(cwd, out, *args, extra=None) -> subprocess.CompletedProcess:
   """benchmarks/device_call.sh run in ``cwd`` as on the device: this Python first on the path, the
-  repository importable, the stage and the wheels' site under ``cwd``."""
+  repository importable, the stage and the wheels' site under ``cwd``; ``extra`` environment."""
   env = {**os.environ, "OUT": str(out), "STAGE_ROOT": str(cwd), "SITE_DIR": str(cwd / "site"),
          "PATH": os.path.dirname(sys.executable) + os.pathsep + os.environ["PATH"],
-         "PYTHONPATH": str(_SCRIPT.parents[1])}
+         "PYTHONPATH": str(_SCRIPT.parents[1]), **(extra or {})}
   return subprocess.run(["bash", str(_SCRIPT), *map(str, args)], cwd=cwd, env=env,
                         capture_output=True, text=True)
 
@@ -375,14 +375,15 @@ def _wheel(folder) -> None:
 
 def test_a_device_call_resumes_from_carried_parts_and_sends_the_run_back(tmp_path):
   device = tmp_path / "device"
-  carry.pack(_tree(tmp_path), str(device / ".carry"), "hc", part_mb=PART_MB)
+  carry.pack(_tree(tmp_path), str(device / ".carry" / "hc"), "hc", part_mb=PART_MB)
   _wheel(device / ".whl-train")
   # The "training": imports the carried wheel, checks that the run was rebuilt from the parts,
   # then adds to it.
   train = ("import os, blxprobe; r = 'runs/hc/mimax/objective=diayn'; "
            "assert os.path.exists(r + '/checkpoint/checkpoint.npz'); "
            "open(r + '/metrics.csv', 'a').write('0,10\\n'); print('trained')")
-  done = _device_call(device, tmp_path / "out", "hc", "runs/hc", 60, sys.executable, "-c", train)
+  done = _device_call(device, tmp_path / "out", "hc", "runs/hc", 60, sys.executable, "-c", train,
+                      extra={"RESUME": "1"})
   assert done.returncode == 0, done.stderr + done.stdout
   log = (tmp_path / "out" / "hc.log").read_text()
   assert "unpacked into runs/hc" in log and "trained" in log and "exit status 0" in log
@@ -407,6 +408,13 @@ def test_a_device_call_resumes_from_carried_parts_and_sends_the_run_back(tmp_pat
   assert (tmp_path / "home2" / "late").read_text() == "x"
   assert (tmp_path / "home2" / "mimax" / "objective=diayn" / "metrics.csv").read_text().endswith(
       "0,10\n")
+
+
+def test_a_device_call_told_to_resume_never_starts_a_run_anew(tmp_path):
+  done = _device_call(tmp_path, tmp_path / "out", "hc", "runs/hc", 60, "touch", "trained",
+                      extra={"RESUME": "1"})
+  assert done.returncode == 3 and "carry.py unpark hc --into .carry/hc" in done.stderr
+  assert not (tmp_path / "trained").exists() and not (tmp_path / "runs").exists()
 
 
 def test_a_device_call_names_a_bad_call(tmp_path):
