@@ -40,7 +40,7 @@ git object, by which ``unpark`` reads it).
 The parts then cost the repository's history their size, and no later call's carry anything.
 ``park`` refuses a pack that is not whole (a missing or cut part), a name already parked, and a
 repository with staged changes (they would go into its commit). ``unpark NAME --into DIR`` writes
-the parts back from that commit, checking every one against its recorded SHA-256, ready to carry;
+the parts back from the history, checking every one against its recorded SHA-256, ready to carry;
 ``parked`` lists what is parked, and ``forget NAME`` drops a finished pack from the ledger (its
 parts stay in the history; commit the ledger with the run's results).
 """
@@ -458,8 +458,9 @@ def park(parts: list[str], *, repo: str = ".", note: str = "") -> str:
 
 
 def unpark(name: str, into: str, *, repo: str = ".") -> list[str]:
-  """Writes the parts of the parked pack ``name`` into ``into`` from the commit that holds them,
-  each checked against its recorded size and SHA-256; returns their paths. All or nothing."""
+  """Writes the parts of the parked pack ``name`` into ``into`` from the history (each read by its
+  git object and checked against its recorded size and SHA-256); returns their paths. All or
+  nothing."""
   root = _root(repo)
   ledger = read_ledger(root)
   if name not in ledger:
