@@ -457,16 +457,22 @@ def park(parts: list[str], *, repo: str = ".", note: str = "") -> str:
   return commit
 
 
+def _parked(verb: str, name: str, repo: str) -> tuple[str, dict, dict]:
+  """``repo``'s root, its ledger and the entry of the parked pack ``name``; a CarryError from
+  ``verb`` naming what is parked where ``name`` is not."""
+  root = _root(repo)
+  ledger = read_ledger(root)
+  if name not in ledger:
+    raise CarryError(f"{verb}: no pack named {name!r} is parked; parked: "
+                     f"{', '.join(sorted(ledger)) or 'none'}")
+  return root, ledger, ledger[name]
+
+
 def unpark(name: str, into: str, *, repo: str = ".") -> list[str]:
   """Writes the parts of the parked pack ``name`` into ``into`` from the history (each read by its
   git object and checked against its recorded size and SHA-256); returns their paths. All or
   nothing."""
-  root = _root(repo)
-  ledger = read_ledger(root)
-  if name not in ledger:
-    raise CarryError(f"unpark: no pack named {name!r} is parked; parked: "
-                     f"{', '.join(sorted(ledger)) or 'none'}")
-  entry = ledger[name]
+  root, _, entry = _parked("unpark", name, repo)
   targets = [os.path.join(into, p["file"]) for p in entry["parts"]]
   there = [t for t in targets if os.path.lexists(t)]
   if there:
@@ -494,12 +500,8 @@ def unpark(name: str, into: str, *, repo: str = ".") -> list[str]:
 def forget(name: str, *, repo: str = ".") -> dict:
   """Drops ``name`` from the ledger (not committed; its parts stay in the history); returns its
   entry."""
-  root = _root(repo)
-  ledger = read_ledger(root)
-  if name not in ledger:
-    raise CarryError(f"forget: no pack named {name!r} is parked; parked: "
-                     f"{', '.join(sorted(ledger)) or 'none'}")
-  entry = ledger.pop(name)
+  root, ledger, entry = _parked("forget", name, repo)
+  del ledger[name]
   _write_ledger(root, ledger)
   return entry
 
