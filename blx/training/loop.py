@@ -6,6 +6,7 @@ import concurrent.futures
 import dataclasses
 import os
 import sys
+import threading
 import time
 from typing import Any, Callable, NamedTuple, Sequence
 
@@ -111,6 +112,8 @@ def train(env: Any, objective: Objective, config: PPOConfig, *, seeds: Sequence[
   Raises:
     NonFiniteError: a loss, a parameter or an observation became non-finite; the message names the
       iteration and the quantity, and the checkpoint of the last good chunk is kept.
+    KeyboardInterrupt: passed on at once, with the checkpoint of the last chunk reported; the
+      chunk in flight is dropped, and does not hold the process's exit.
   """
   seeds = list(check_seeds(seeds, "train: seeds"))
   trainer = make_trainer(env, objective, config)
@@ -169,9 +172,8 @@ def train(env: Any, objective: Objective, config: PPOConfig, *, seeds: Sequence[
   # Chunks are dispatched from a second thread, so that the host checks, checkpoints and reports
   # chunk k while the device runs chunk k + 1 (JAX's asynchronous dispatch alone did not overlap
   # them on a GPU: each report came one chunk late, benchmarks/RESULTS.md session 13).
-  dispatcher = concurrent.futures.ThreadPoolExecutor(1, thread_name_prefix="blx-dispatch")
   try:
-    pending = (dispatcher.submit(dispatch, state, start_chunk)
+    pending = (_in_background(dispatch, state, start_chunk)
                if start_chunk < trainer.num_chunks else None)
     for chunk in range(start_chunk, trainer.num_chunks):
       state, metrics, evals = pending.result()
@@ -179,7 +181,7 @@ def train(env: Any, objective: Objective, config: PPOConfig, *, seeds: Sequence[
       # chunk that fails the finite check raises below; the chunk queued after it is dropped.
       for leaf in jax.tree.leaves((metrics, evals)):
         leaf.copy_to_host_async()
-      pending = (dispatcher.submit(dispatch, state, chunk + 1)
+      pending = (_in_background(dispatch, state, chunk + 1)
                  if chunk + 1 < trainer.num_chunks else None)
       metrics = jax.device_get(metrics)
       _check_finite(metrics, chunk * trainer.iterations_per_chunk, seeds, checkpoint_dir)
@@ -209,10 +211,27 @@ def train(env: Any, objective: Objective, config: PPOConfig, *, seeds: Sequence[
             f"{trainer.num_chunks} chunks: call train(..., checkpoint_dir={checkpoint_dir!r}, "
             "resume=True) to continue", file=sys.stderr)
     raise
-  finally:
-    dispatcher.shutdown(wait=False, cancel_futures=True)
 
   return TrainResult(params=policy_params(state), metrics=history, policy=trainer.policy, state=state)
+
+
+def _in_background(fn: Callable, *args) -> concurrent.futures.Future:
+  """``fn(*args)`` on a daemon thread of its own; its result or exception in the future returned.
+
+  A daemon thread, unlike an executor's, does not hold the process when training stops early
+  (Ctrl-C, a non-finite loss): the chunk in flight is dropped, its checkpoint never written,
+  rather than the interpreter waiting for it to end on the device (a whole chunk, minutes on a
+  long run; benchmarks/RESULTS.md, session 30)."""
+  future: concurrent.futures.Future = concurrent.futures.Future()
+
+  def work():
+    try:
+      future.set_result(fn(*args))
+    except BaseException as e:  # noqa: BLE001  (handed to the thread that waits on the future)
+      future.set_exception(e)
+
+  threading.Thread(target=work, name="blx-dispatch", daemon=True).start()
+  return future
 
 
 def drop_env_state(directory: str, *, compact: bool = False) -> None:

@@ -1,13 +1,19 @@
 """Trains the SMALL config on `point` in a fresh process; used by the resume and sharding tests.
 
 usage: python -m tests.training._run MODE OUT [CKPT]
-  MODE full: train to the end; interrupt: Ctrl-C after the first chunk; resume: continue CKPT.
+  MODE full: train to the end; interrupt: Ctrl-C after the first chunk; resume: continue CKPT;
+  in-flight: Ctrl-C after the first chunk while the second is held up on the device (an evaluator
+  whose host callback sleeps $BLX_TEST_SLEEP seconds from its second call on); prints the time of
+  the Ctrl-C.
 Writes the final policy params (flattened leaves) to OUT.npz.
 """
 
+import os
 import sys
+import time
 
 import jax
+import jax.numpy as jnp
 import numpy as np
 
 from blx import envs, training
@@ -20,13 +26,27 @@ def main():
   config = SMALL.replace(num_timesteps=4 * 16 * 5 * 2, num_evals=4) if mode != "dp" else SMALL
 
   def interrupt(row):
+    print(f"interrupted at {time.time()}", flush=True)
     raise KeyboardInterrupt
+
+  calls = []
+
+  def held_up(x):
+    calls.append(x)
+    if len(calls) > 1:
+      time.sleep(float(os.environ["BLX_TEST_SLEEP"]))
+    return x
+
+  def evaluate(policy, params, key):
+    one = jnp.float32(1.0)
+    return {"held_up": jax.pure_callback(held_up, jax.ShapeDtypeStruct((), jnp.float32), one)}
 
   try:
     env = envs.create("point", episode_length=20)
     result = training.train(env, reach_latent(), config, seeds=(3,),
-                            progress=interrupt if mode == "interrupt" else False,
-                            checkpoint_dir=ckpt, resume=mode == "resume")
+                            progress=interrupt if mode in ("interrupt", "in-flight") else False,
+                            checkpoint_dir=ckpt, resume=mode == "resume",
+                            evaluate=evaluate if mode == "in-flight" else None)
   except KeyboardInterrupt:
     sys.exit(130)
   leaves = jax.tree.leaves(jax.device_get(result.params))

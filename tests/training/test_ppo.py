@@ -5,8 +5,10 @@ from __future__ import annotations
 
 import functools
 import os
+import re
 import subprocess
 import sys
+import time
 
 import jax
 import jax.numpy as jnp
@@ -128,6 +130,19 @@ def test_resume_after_interrupt_in_a_fresh_process_gives_identical_params(tmp_pa
   assert resumed.returncode == 0, resumed.stderr[-3000:]
   for a, b in zip(_leaves(tmp_path / "full.npz"), _leaves(tmp_path / "resumed.npz")):
     np.testing.assert_array_equal(a, b)
+
+
+def test_an_interrupt_does_not_wait_for_the_chunk_in_flight(tmp_path):
+  # The second chunk's evaluation is held up on the device for 120 s when Ctrl-C comes after the
+  # first: the process ends at once, keeping the first chunk's checkpoint, where it used to wait
+  # for the chunk in flight (its dispatch thread held the interpreter's exit).
+  ckpt = str(tmp_path / "ckpt")
+  interrupted = _run("in-flight", str(tmp_path / "none.npz"), ckpt, env={"BLX_TEST_SLEEP": "120"})
+  ended = time.time()
+  assert interrupted.returncode == 130, interrupted.stderr[-3000:]
+  at = float(re.search(r"interrupted at ([0-9.]+)", interrupted.stdout).group(1))
+  assert ended - at < 60, f"the process ended {ended - at:.0f} s after Ctrl-C"
+  assert checkpoint.read_meta(ckpt)["chunk"] == 1
 
 
 def test_two_devices_match_one_device(tmp_path):
