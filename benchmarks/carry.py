@@ -3,7 +3,7 @@ limits: a device call here carries at most 64 MiB there (the working tree includ
 at most 8 files of 16 MiB (64 MiB together); a machine goes back after 30 minutes held, a session
 has 30 minutes of device time, and a row of #15 outlives both.
 
-    python benchmarks/carry.py pack DIR OUT_DIR [--name NAME] [--part-mb 15] [--keep-env-state]
+    python benchmarks/carry.py pack DIR OUT_DIR [--name NAME] [--part-mb 16] [--keep-env-state]
     python benchmarks/carry.py send STAGE OUT_DIR [--call-mib 64] [--call-files 8]
     python benchmarks/carry.py unpack OUT_DIR/NAME.tar.part_* --into DEST
     python benchmarks/carry.py fits [PATH ...] [--call-mib 64]
@@ -13,11 +13,12 @@ has 30 minutes of device time, and a row of #15 outlives both.
     python benchmarks/carry.py forget NAME
 
 ``pack`` writes the directory tree ``DIR`` (one run, or a sweep's ``--out`` with its points) as one
-tar stream cut into ``NAME.tar.part_000``, ``_001``, ... of at most ``--part-mb`` MB each. Every
-checkpoint in it goes without the envs' simulator state (``training.drop_env_state``: an Ant or
-half-cheetah row's 464 MB become 33 MB), unless ``--keep-env-state``, and compact
-(``checkpoint.save``: lossless, about 15 % smaller again); ``DIR`` itself is not changed. A run
-resumed from it starts every env on a new episode.
+tar stream cut into ``NAME.tar.part_000``, ``_001``, ... of at most ``--part-mb`` MB each (default
+16, within the 16 MiB a call brings back per file: a 30 MB pack goes in two parts, so two packs and
+their logs come back in one call's 8 files). Every checkpoint in it goes without the envs'
+simulator state (``training.drop_env_state``: an Ant or half-cheetah row's 464 MB become 33 MB),
+unless ``--keep-env-state``, and compact (``checkpoint.save``: lossless, about 15 % smaller
+again); ``DIR`` itself is not changed. A run resumed from it starts every env on a new episode.
 
 ``send`` is for a pack larger than one call brings back (8 files, 64 MiB together): pack into a
 staging directory on the device machine, then let each call end with ``send STAGE $OUT``. It moves
@@ -139,7 +140,7 @@ def checkpoints(directory: str) -> list[str]:
   return sorted(root for root, _, files in os.walk(directory) if checkpoint.FILE in files)
 
 
-def pack(directory: str, out_dir: str, name: str, *, part_mb: float = 15,
+def pack(directory: str, out_dir: str, name: str, *, part_mb: float = 16,
          keep_env_state: bool = False) -> list[str]:
   """Writes the tree ``directory`` as the parts ``out_dir/name.tar.part_NNN`` (each at most
   ``part_mb`` MB), its checkpoints compact and without the envs' state unless ``keep_env_state``;
@@ -513,7 +514,7 @@ def main(argv: list[str] | None = None) -> None:
   p.add_argument("directory")
   p.add_argument("out_dir")
   p.add_argument("--name", default=None, help="the parts' name (default: DIR's name)")
-  p.add_argument("--part-mb", type=float, default=15, help="the largest part, in MB (default 15)")
+  p.add_argument("--part-mb", type=float, default=16, help="the largest part, in MB (default 16)")
   p.add_argument("--keep-env-state", action="store_true",
                  help="keep the envs' simulator state in every checkpoint")
   s = sub.add_parser("send", help="move the next parts that fit one call from STAGE to OUT_DIR")

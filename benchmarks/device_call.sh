@@ -20,7 +20,8 @@
 #    pack: SECONDS 540 at most.
 # 4. Carry back: RUN_DIR is packed (`carry.py pack`: checkpoints compact, without the envs' state)
 #    and its parts go to $OUT beside the log, so that a machine lost after the call loses
-#    nothing; `carry.py park FILES_AT/NAME.tar.part_*` on the CPU machine keeps the last call's
+#    nothing; calls side by side send their parts in turn ($STAGE_ROOT/blx-send.lock), each
+#    counting what the other left in $OUT; `carry.py park FILES_AT/NAME.tar.part_*` on the CPU machine keeps the last call's
 #    pack for the next session. Parts that do not fit the call's return (8 files, 64 MiB) stay in
 #    /tmp/stage-NAME, and `send` says so: a call of `python3 benchmarks/carry.py send
 #    /tmp/stage-NAME $OUT` alone brings them, before the next call packs the run anew.
@@ -46,6 +47,7 @@ out=$OUT
 here=$(cd "$(dirname "$0")" && pwd)
 carry_dir=${CARRY_ROOT:-.carry}/$name
 stage=${STAGE_ROOT:-/tmp}/stage-$name
+send_lock=${STAGE_ROOT:-/tmp}/blx-send.lock
 site=${SITE_DIR:-/tmp/site}
 mkdir -p "$out"
 log=$out/$name.log
@@ -93,7 +95,12 @@ echo "[device_call] $(date -u +%FT%TZ) exit status $status" | tee -a "$log"
 # 4. Carry back.
 if [ -d "$run_dir" ]; then
   rm -rf "$stage"
-  python3 "$here/carry.py" pack "$run_dir" "$stage" --name "$name" 2>&1 | tee -a "$log" \
-    && python3 "$here/carry.py" send "$stage" "$out" 2>&1 | tee -a "$log"
+  if python3 "$here/carry.py" pack "$run_dir" "$stage" --name "$name" 2>&1 | tee -a "$log"; then
+    # One send at a time: each fits its parts beside the files already in $OUT. A lock left by a
+    # call killed while sending is waited for 60 s, then passed.
+    for _ in $(seq 60); do mkdir "$send_lock" 2>/dev/null && break; sleep 1; done
+    python3 "$here/carry.py" send "$stage" "$out" 2>&1 | tee -a "$log"
+    rmdir "$send_lock" 2>/dev/null
+  fi
 fi
 exit $status

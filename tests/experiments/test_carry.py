@@ -6,9 +6,11 @@ import io
 import json
 import os
 import pathlib
+import shutil
 import subprocess
 import sys
 import tarfile
+import time
 import zipfile
 from typing import NamedTuple
 
@@ -408,6 +410,32 @@ def test_a_device_call_resumes_from_carried_parts_and_sends_the_run_back(tmp_pat
   assert (tmp_path / "home2" / "late").read_text() == "x"
   assert (tmp_path / "home2" / "mimax" / "objective=diayn" / "metrics.csv").read_text().endswith(
       "0,10\n")
+
+
+def test_two_device_calls_side_by_side_send_their_packs_in_turn(tmp_path):
+  # Each call fits its parts beside what $OUT already holds, so a call must not send while the
+  # other is sending: with the lock held (another call sending), this one packs and then waits.
+  device = tmp_path / "device"
+  os.makedirs(device / "runs")
+  shutil.copytree(_tree(tmp_path), device / "runs" / "hc")
+  lock = device / "blx-send.lock"
+  os.makedirs(lock)
+  out = tmp_path / "out"
+  env = {**os.environ, "OUT": str(out), "STAGE_ROOT": str(device),
+         "SITE_DIR": str(device / "site"), "PYTHONPATH": str(_SCRIPT.parents[1]),
+         "PATH": os.path.dirname(sys.executable) + os.pathsep + os.environ["PATH"]}
+  call = subprocess.Popen(["bash", str(_SCRIPT), "hc", "runs/hc", "60", "true"], cwd=device,
+                          env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+  deadline = time.time() + 120
+  while not list((device / "stage-hc").glob("hc.tar.part_*")) and time.time() < deadline:
+    time.sleep(0.2)
+  assert list((device / "stage-hc").glob("hc.tar.part_*")), "the call never packed its run"
+  time.sleep(3)
+  assert call.poll() is None and not list(out.glob("hc.tar.part_*"))  # waiting for the lock
+  os.rmdir(lock)
+  stdout, stderr = call.communicate(timeout=120)
+  assert call.returncode == 0, stderr + stdout
+  assert list(out.glob("hc.tar.part_*")) and not lock.exists()  # sent, and the lock let go
 
 
 def test_a_device_call_told_to_resume_never_starts_a_run_anew(tmp_path):
