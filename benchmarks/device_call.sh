@@ -22,9 +22,10 @@
 #    and its parts go to $OUT beside the log, so that a machine lost after the call loses
 #    nothing; calls side by side send their parts in turn ($STAGE_ROOT/blx-send.lock), each
 #    counting what the other left in $OUT; `carry.py park FILES_AT/NAME.tar.part_*` on the CPU
-#    machine keeps the last call's pack for the next session. Parts that do not fit the call's return (8 files, 64 MiB) stay in
-#    /tmp/stage-NAME, and `send` says so: a call of `python3 benchmarks/carry.py send
-#    /tmp/stage-NAME $OUT` alone brings them, before the next call packs the run anew.
+#    machine keeps the last call's pack for the next session. Parts that do not fit the call's
+#    return (8 files, 64 MiB) stay in /tmp/stage-NAME, and `send` says so: a call of `python3
+#    benchmarks/carry.py send /tmp/stage-NAME $OUT` alone brings them, before the next call packs
+#    the run anew.
 #
 # The exit status is COMMAND's (124 when interrupted at SECONDS), 2 for a bad call, or 3 where
 # RESUME=1 finds nothing to resume.
