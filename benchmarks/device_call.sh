@@ -53,9 +53,15 @@ site=${SITE_DIR:-/tmp/site}
 mkdir -p "$out"
 log=$out/$name.log
 
+# Takes the lock LOCK (a directory) from calls side by side, waiting at most SECONDS for it: a lock
+# left by a call killed while holding it is then passed over.
+take() {  # LOCK SECONDS
+  for _ in $(seq "$2"); do mkdir "$1" 2>/dev/null && return; sleep 1; done
+}
+
 # 1. Wheels, once per machine; calls side by side (one per GPU) install them once, in turn.
 mkdir -p "$(dirname "$site")"
-for _ in $(seq 120); do mkdir "$site.lock" 2>/dev/null && break; sleep 1; done
+take "$site.lock" 120
 for wheels in .whl-train .whl; do
   if [ -d "$wheels" ] && ! [ -e "$site/.blx-installed" ]; then
     if ! python3 -m pip install -q --no-index --no-deps --no-compile --no-cache-dir --upgrade \
@@ -97,9 +103,8 @@ echo "[device_call] $(date -u +%FT%TZ) exit status $status" | tee -a "$log"
 if [ -d "$run_dir" ]; then
   rm -rf "$stage"
   if python3 "$here/carry.py" pack "$run_dir" "$stage" --name "$name" 2>&1 | tee -a "$log"; then
-    # One send at a time: each fits its parts beside the files already in $OUT. A lock left by a
-    # call killed while sending is waited for 60 s, then passed.
-    for _ in $(seq 60); do mkdir "$send_lock" 2>/dev/null && break; sleep 1; done
+    # One send at a time: each fits its parts beside the files already in $OUT.
+    take "$send_lock" 60
     python3 "$here/carry.py" send "$stage" "$out" 2>&1 | tee -a "$log"
     rmdir "$send_lock" 2>/dev/null
   fi
