@@ -96,6 +96,12 @@ class Study:
     label = self.labels[self.values.index(self.value(run_spec))]
     return f"{run_spec.objective}, {label}" if len(self.objectives) > 1 else label
 
+  def style(self, run_spec) -> tuple[str, str]:
+    """An arm's colour and line style in the curves: the colour is its value's and the line its
+    objective's (solid, dashed, dash-dot), so that the arms of one value read as a pair."""
+    return (f"C{self.values.index(self.value(run_spec)) % 10}",
+            OBJECTIVE_STYLES[self.objectives.index(run_spec.objective)])
+
   def default_steps(self, env: str) -> int:
     """The original's env steps per seed: the PPO row of the arms' env times ``multiplier``."""
     return self.multiplier * paper_tables.ppo_defaults(self.scene or env).num_timesteps
@@ -144,7 +150,8 @@ STUDIES = {
                        ("eval/mi", "eval/entropy", "eval/lgr"),
                        "spectral norm makes cDIAYN's skills distinct"),
     "gp": Study("dmin", ("airl", "gail"), "gradient_penalty_weight", (0.0, 1.0, 10.0),
-                ("eval/energy_distance",), "gradient penalty does not help much; too much hurts"),
+                ("eval/energy_distance",), "gradient penalty does not help much; too much hurts",
+                labels=("no penalty (the paper's row)", "penalty weight 1", "penalty weight 10")),
     "skills": Study("mimax", ("diayn",), "num_skills", (8, 2, 4, 16),
                     ("eval/mi", "eval/entropy", "eval/lgr"),
                     "more skills raise the MI, which is bounded by ln K", paper=False),
@@ -404,6 +411,7 @@ def read_reference(name: str, path: str, metrics: tuple[str, ...]) -> Reference:
 
 
 REFERENCE_STYLES = ("--", ":", "-.")  # one line style per reference, all dark grey
+OBJECTIVE_STYLES = ("-", "--", "-.")  # one line style per objective of a study, in its colours
 
 
 def _timed(rows: list[dict]) -> bool:
@@ -424,13 +432,14 @@ def report(study_name: str, study: Study, directory: str, sweep_spec: dict,
   matplotlib.use("Agg")
   import matplotlib.pyplot as plt
   from blx.experiments import plots, sweep
-  arms, curves, labels, objectives = {}, {}, {}, {}
+  arms, curves, labels, objectives, styles = {}, {}, {}, {}, {}
   for name, run_spec in sweep.expand(sweep_spec):
     path = os.path.join(directory, name)
     if not os.path.exists(os.path.join(path, "metrics.csv")):
       continue
     labels[name] = study.label(name, run_spec)
     objectives[name] = run_spec.objective
+    styles[name] = study.style(run_spec)
     with open(os.path.join(path, "metrics.csv")) as f:
       curves[name] = list(csv.DictReader(f))
     if os.path.exists(os.path.join(path, "eval.json")):
@@ -440,8 +449,8 @@ def report(study_name: str, study: Study, directory: str, sweep_spec: dict,
       labels[name] += " (unfinished)"
   if not curves:
     raise SystemExit(f"{directory}: no arm of {study_name} has run yet (no metrics.csv)")
-  fig, axes = plt.subplots(1, len(study.metrics), figsize=(5 * len(study.metrics), 3.6),
-                           squeeze=False)
+  fig, axes = plt.subplots(1, len(study.metrics), figsize=(5 * len(study.metrics) + 2.4, 3.6),
+                           squeeze=False)  # 2.4 inches for the legend beside the panels
   span = max((float(r["env_steps"]) for rows in curves.values() for r in rows), default=0.0)
   for ax, key in zip(axes[0], study.metrics):
     for name, rows in curves.items():
@@ -449,9 +458,10 @@ def report(study_name: str, study: Study, directory: str, sweep_spec: dict,
       if not steps:
         continue
       x = [s / 1e6 for s in steps]
-      ax.plot(x, mean, label=labels[name])
+      colour, line = styles[name]
+      ax.plot(x, mean, line, color=colour, label=labels[name])
       ax.fill_between(x, [m - s for m, s in zip(mean, std)], [m + s for m, s in zip(mean, std)],
-                      alpha=0.2)
+                      color=colour, alpha=0.2)
     for reference, style in zip(references, REFERENCE_STYLES):
       steps, mean, std = curve(reference.rows, key)
       shown = [(s / 1e6, m, d) for s, m, d in zip(steps, mean, std) if s <= span]
@@ -464,11 +474,12 @@ def report(study_name: str, study: Study, directory: str, sweep_spec: dict,
     ax.set_title(LABELS.get(key, key))
     plots.value_axis(ax, key)
     ax.grid(alpha=0.3)
-  axes[0][0].legend(fontsize=7)
+  # Beside the panels rather than over the curves; the saved figure's box takes it in.
+  axes[0][-1].legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.02, 1.0))
   title = f"{study_name}; {study.claim_line} (mean ± std over seeds)"
   fig.suptitle(textwrap.fill(title, 60 * len(study.metrics)), fontsize=9)
   fig.tight_layout()
-  fig.savefig(os.path.join(directory, "curves.png"), dpi=120)
+  fig.savefig(os.path.join(directory, "curves.png"), dpi=120, bbox_inches="tight")
   plt.close(fig)
   labelled = {labels[name]: arm for name, arm in arms.items()}
   table = ("\n".join(compare(labelled, study.metrics)) if arms

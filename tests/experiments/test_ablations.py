@@ -198,9 +198,35 @@ def test_legend_entries_are_the_studys_labels_where_given_and_the_point_names_ot
   assert step.claim_line.startswith("tested (not a claim of the paper): ")
   gp = ablations.STUDIES["gp"]
   points = sweep.expand(ablations.spec(gp, "ant", 2, steps=1000))
-  assert [gp.label(n, s) for n, s in points][:2] == [
-      "objective=airl, gradient_penalty_weight=0.0", "objective=airl, gradient_penalty_weight=1.0"]
+  assert [gp.label(n, s) for n, s in points][:4] == [
+      "airl, no penalty (the paper's row)", "airl, penalty weight 1", "airl, penalty weight 10",
+      "gail, no penalty (the paper's row)"]
   assert gp.claim_line.startswith("the paper: ")
+  sn = ablations.STUDIES["sn_diayn"]
+  points = sweep.expand(ablations.spec(sn, "ant", 2, steps=1000))
+  assert [sn.label(n, s) for n, s in points] == ["spectral_norm=True", "spectral_norm=False"]
+
+
+def test_a_studys_arms_of_one_value_share_a_colour_and_its_objectives_a_line_style(tmp_path,
+                                                                                    monkeypatch):
+  import matplotlib.axes
+  drawn, plot = {}, matplotlib.axes.Axes.plot
+  monkeypatch.setattr(matplotlib.axes.Axes, "plot", lambda self, *a, **k: drawn.update(
+      {k.get("label"): (k.get("color"), a[2] if len(a) > 2 else None)}) or plot(self, *a, **k))
+  study = ablations.STUDIES["gp"]
+  spec = ablations.spec(study, "ant", 2, steps=2000, config={"num_evals": 2})
+  for name, _ in sweep.expand(spec):
+    if "weight=10.0" in name and "airl" in name:
+      continue  # an arm not run yet: the others keep their value's colour
+    (tmp_path / name).mkdir()
+    _write_metrics(tmp_path / name / "metrics.csv", {(0, 2000): 1.0, (1, 2000): 1.2},
+                   key="eval/energy_distance")
+  ablations.report("gp", study, str(tmp_path), spec)
+  airl = [drawn[f"airl, {v} (unfinished)"] for v in study.labels if not v.endswith("10")]
+  gail = [drawn[f"gail, {v} (unfinished)"] for v in study.labels]
+  assert [c for c, _ in gail] == ["C0", "C1", "C2"]
+  assert [c for c, _ in airl] == ["C0", "C1"]
+  assert {line for _, line in airl} == {"-"} and {line for _, line in gail} == {"--"}
 
 
 def _write_metrics(path, values, key="eval/mi"):
@@ -451,7 +477,7 @@ def test_an_unfinished_arm_is_drawn_and_compared_at_the_last_steps_every_arm_rea
   assert "(unfinished)" not in finals  # no eval.json: not among the final evaluations
   from scipy import stats
   want = stats.ttest_ind([2.7, 2.9], [1.8, 2.0], equal_var=False)
-  rows = [r for r in during.splitlines() if r.startswith("| objective=airl")]
+  rows = [r for r in during.splitlines() if r.startswith("| airl")]
   assert [[c.strip() for c in r.split("|")[3:7]] for r in rows] == [
       ["20.00 M", "1.900 ± 0.100 (2)", "", ""],
       ["20.00 M", "2.800 ± 0.100 (2)", f"{want.statistic:+.2f}", f"{want.pvalue:.3f}"]]
@@ -462,8 +488,8 @@ def test_an_unfinished_arm_is_drawn_and_compared_at_the_last_steps_every_arm_rea
   table = ablations.report("gp", study, str(tmp_path), spec)
   finals, during = table.split("An arm is unfinished")
   assert finals.startswith("No arm has its final evaluation (eval.json) yet.")
-  assert [r for r in during.splitlines() if r.startswith("| objective=airl")] == [
-      rows[0].replace("weight=0.0", "weight=0.0 (unfinished)"), rows[1]]
+  assert [r for r in during.splitlines() if r.startswith("| airl")] == [
+      rows[0].replace("row)", "row) (unfinished)"), rows[1]]
   (done / "metrics.csv").unlink(), (open_ / "metrics.csv").unlink()
   with pytest.raises(SystemExit, match="no arm of gp has run yet"):
     ablations.report("gp", study, str(tmp_path), spec)
