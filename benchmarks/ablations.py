@@ -593,7 +593,11 @@ def main():
     select = None if only is None and args.objective is None else (
         lambda name, run_spec: ((only is None or study.value(run_spec) in only)
                                 and run_spec.objective in objectives))
-    sweep.run_sweep(sweep_spec, directory, select=select, eval_metrics=True)
+    try:
+      sweep.run_sweep(sweep_spec, directory, select=select, eval_metrics=True)
+    except KeyboardInterrupt:
+      print(f"[ablations] {sweep.INTERRUPTED}", file=sys.stderr)
+      raise SystemExit(130)
   print(report(args.study, study, directory, sweep_spec, references))
 
 

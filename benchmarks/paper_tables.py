@@ -35,6 +35,7 @@ import glob
 import json
 import math
 import os
+import sys
 
 from blx.experiments import sweep
 from blx.training.config import ppo_defaults
@@ -284,7 +285,11 @@ def main():
     if args.objective and args.objective not in spec["objective"]:
       continue
     out = os.path.join(args.out, family)
-    sweep.run_sweep(spec, out, select=select, eval_metrics=args.eval_metrics)
+    try:
+      sweep.run_sweep(spec, out, select=select, eval_metrics=args.eval_metrics)
+    except KeyboardInterrupt:
+      print(f"[paper_tables] {sweep.INTERRUPTED}", file=sys.stderr)
+      raise SystemExit(130)
     print(open(os.path.join(out, "summary.md")).read())
     print(compare(out))
 

@@ -311,7 +311,11 @@ def cmd_sweep(args) -> int:
   spec = sweep.load_spec(args.spec)
   out = args.out or spec.get("out") or os.path.join(
       "sweeps", spec.get("name") or os.path.splitext(os.path.basename(args.spec))[0])
-  rows = sweep.run_sweep(spec, out, progress=_Progress(), eval_metrics=args.eval_metrics)
+  try:
+    rows = sweep.run_sweep(spec, out, progress=_Progress(), eval_metrics=args.eval_metrics)
+  except KeyboardInterrupt:
+    print(f"[blx] {sweep.INTERRUPTED}", file=sys.stderr)
+    return 130
   with open(os.path.join(out, "summary.md")) as f:
     print(f.read())
   print(f"[blx] {len(rows)} runs; tables in {out}/summary.{{md,csv,tex}}", file=sys.stderr)

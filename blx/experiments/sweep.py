@@ -31,6 +31,11 @@ __all__ = ["load_spec", "check_spec", "expand", "run_sweep"]
 _KEYS = {"name", "env", "objective", "seeds", "steps", "config", "options", "env_params", "out",
          "agent"}
 
+# What a command that runs a sweep says when interrupted (Ctrl-C, or a timeout's SIGINT): running
+# it again continues, as ``run_sweep`` reuses evaluated points and resumes the one in flight.
+INTERRUPTED = ("interrupted: run the same command again to continue (evaluated points are kept; "
+               "the point in flight resumes from its last whole checkpoint)")
+
 
 def load_spec(path: str) -> dict:
   """Reads a sweep spec from .json, .yaml/.yml or .py (a module-level ``SPEC`` dict)."""

@@ -493,3 +493,19 @@ def test_an_unfinished_arm_is_drawn_and_compared_at_the_last_steps_every_arm_rea
   (done / "metrics.csv").unlink(), (open_ / "metrics.csv").unlink()
   with pytest.raises(SystemExit, match="no arm of gp has run yet"):
     ablations.report("gp", study, str(tmp_path), spec)
+
+
+def test_an_interrupted_study_says_how_to_continue_and_exits_130_without_a_report(
+    monkeypatch, capsys, tmp_path):
+  def interrupted(*args, **kwargs):  # a Ctrl-C (or a timeout's SIGINT) while an arm trains
+    raise KeyboardInterrupt
+
+  reported = []
+  monkeypatch.setattr(sweep, "run_sweep", interrupted)
+  monkeypatch.setattr(ablations, "report", lambda *a, **k: reported.append(a) or "")
+  monkeypatch.setattr("sys.argv", ["ablations.py", "gp", "--out", str(tmp_path)])
+  with pytest.raises(SystemExit) as stop:
+    ablations.main()
+  assert stop.value.code == 130
+  assert f"[ablations] {sweep.INTERRUPTED}" in capsys.readouterr().err
+  assert not reported

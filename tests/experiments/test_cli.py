@@ -166,6 +166,18 @@ def test_sweep_writes_one_run_per_point_and_aggregate_tables(tmp_path, capsys):
   assert os.path.getmtime(os.path.join(out, "objective=gcrl", "eval.json")) == mtime
 
 
+def test_an_interrupted_sweep_says_how_to_continue_and_exits_130(tmp_path, capsys, monkeypatch):
+  path = tmp_path / "spec.json"
+  path.write_text(json.dumps({"env": "point", "objective": "gcrl", "steps": 1600}))
+
+  def interrupted(*args, **kwargs):  # a Ctrl-C (or a timeout's SIGINT) while a point trains
+    raise KeyboardInterrupt
+
+  monkeypatch.setattr(sweep, "run_sweep", interrupted)
+  assert cli.main(["sweep", str(path), "--out", str(tmp_path / "out")]) == 130
+  assert f"[blx] {sweep.INTERRUPTED}" in capsys.readouterr().err
+
+
 def test_a_task_sweeps_table_gives_the_episode_length_beside_the_score(tmp_path):
   # Two legs flip within 240 of 1,000 steps and so score higher than four that run (session 26);
   # only the length tells.

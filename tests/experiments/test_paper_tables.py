@@ -148,3 +148,17 @@ def test_bad_env_edits_or_options_are_named_before_anything_trains(flag, text, m
     paper_tables.main()
   assert message in capsys.readouterr().err
   assert not trained
+
+
+def _interrupted(*args, **kwargs):  # a Ctrl-C (or a timeout's SIGINT) while a point trains
+  raise KeyboardInterrupt
+
+
+def test_an_interrupted_table_says_how_to_continue_and_exits_130(monkeypatch, capsys, tmp_path):
+  monkeypatch.setattr(sweep, "run_sweep", _interrupted)
+  monkeypatch.setattr("sys.argv", ["paper_tables.py", "--objective", "diayn",
+                                   "--out", str(tmp_path)])
+  with pytest.raises(SystemExit) as stop:
+    paper_tables.main()
+  assert stop.value.code == 130
+  assert f"[paper_tables] {sweep.INTERRUPTED}" in capsys.readouterr().err
