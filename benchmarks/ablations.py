@@ -66,6 +66,7 @@ sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import paper_tables  # noqa: E402
 
 from blx.envs.descs import PRO_ANT_STEPS  # noqa: E402
+from blx.experiments import runs  # noqa: E402
 
 
 @dataclasses.dataclass(frozen=True)
@@ -342,15 +343,29 @@ BETTER = {"eval/mi": 1, "eval/entropy": 1, "eval/lgr": -1, "eval/energy_distance
           "eval/episode_env_reward": 1, "eval/episode_score": 1}
 
 
-def time_to(curves: dict[str, tuple[str, list[dict]]], metrics: tuple[str, ...]) -> list[str]:
+def ran_on(segments: list[runs.Segment]) -> str:
+  """The devices a run trained on, in order (``runs.read_provenance``), e.g. "NVIDIA H200, then
+  NVIDIA H100 80GB HBM3"; "not recorded" for a run from before blx recorded them."""
+  kinds = []
+  for segment in segments:
+    kind = segment.device + (f" x {segment.device_count}" if segment.device_count > 1 else "")
+    if not kinds or kinds[-1] != kind:
+      kinds.append(kind)
+  return ", then ".join(kinds) or "not recorded"
+
+
+def time_to(curves: dict[str, tuple[str, list[dict]]], metrics: tuple[str, ...],
+            devices: dict[str, str] | None = None) -> list[str]:
   """Markdown rows: per metric of ``BETTER``, the first arm's (of each objective) last evaluation
   during training, mean over seeds, is the target; per arm, the env steps and wall time
   (metrics.csv's ``time``: seconds since the run's start, compilation and evaluations included) at
   which its mean first reaches the target, or "not reached". Where arms cost differently per env
   step (a finer physics step), this is what the study's user waits. ``curves``: ``{arm label:
-  (objective, metrics.csv rows)}``."""
-  rows = ["| arm | metric | target (first arm's last) | env steps | wall time |",
-          "| --- | --- | ---: | ---: | ---: |"]
+  (objective, metrics.csv rows)}``; ``devices``, where given, ``{arm label: ran_on(...)}`` for a
+  last column, since wall times compare only on like devices."""
+  rows = ["| arm | metric | target (first arm's last) | env steps | wall time |"
+          + (" ran on |" if devices else ""),
+          "| --- | --- | ---: | ---: | ---: |" + (" --- |" if devices else "")]
   for key in (k for k in metrics if k in BETTER):
     sign, targets = BETTER[key], {}
     for label, (objective, arm_rows) in curves.items():
@@ -362,7 +377,8 @@ def time_to(curves: dict[str, tuple[str, list[dict]]], metrics: tuple[str, ...])
       hit = next((s for s, m in zip(steps, mean) if sign * (m - target) >= 0), None)
       cells = (f"{hit / 1e6:.2f} M | {wall[hit]:,.0f} s" if hit is not None and hit in wall
                else "not reached | ")
-      rows.append(f"| {label} | {key} | {target:.3f} | {cells} |")
+      rows.append(f"| {label} | {key} | {target:.3f} | {cells} |"
+                  + (f" {devices.get(label, 'not recorded')} |" if devices else ""))
   return rows
 
 
@@ -389,6 +405,7 @@ class Reference:
   name: str
   rows: list[dict]            # its metrics.csv: the evaluations during training
   final: dict | None = None   # its eval.json (the paper's protocol after training), if it has one
+  segments: tuple = ()        # where it trained (``runs.read_provenance``), if recorded
 
 
 def read_reference(name: str, path: str, metrics: tuple[str, ...]) -> Reference:
@@ -407,7 +424,7 @@ def read_reference(name: str, path: str, metrics: tuple[str, ...]) -> Reference:
   if os.path.isfile(eval_path):
     with open(eval_path) as f:
       final = json.load(f)
-  return Reference(name, rows, final)
+  return Reference(name, rows, final, tuple(runs.read_provenance(os.path.dirname(csv_path))))
 
 
 REFERENCE_STYLES = ("--", ":", "-.")  # one line style per reference, all dark grey
@@ -432,7 +449,7 @@ def report(study_name: str, study: Study, directory: str, sweep_spec: dict,
   matplotlib.use("Agg")
   import matplotlib.pyplot as plt
   from blx.experiments import plots, sweep
-  arms, curves, labels, objectives, styles = {}, {}, {}, {}, {}
+  arms, curves, labels, objectives, styles, devices = {}, {}, {}, {}, {}, {}
   for name, run_spec in sweep.expand(sweep_spec):
     path = os.path.join(directory, name)
     if not os.path.exists(os.path.join(path, "metrics.csv")):
@@ -440,6 +457,7 @@ def report(study_name: str, study: Study, directory: str, sweep_spec: dict,
     labels[name] = study.label(name, run_spec)
     objectives[name] = run_spec.objective
     styles[name] = study.style(run_spec)
+    devices[name] = runs.read_provenance(path)
     with open(os.path.join(path, "metrics.csv")) as f:
       curves[name] = list(csv.DictReader(f))
     if os.path.exists(os.path.join(path, "eval.json")):
@@ -474,8 +492,14 @@ def report(study_name: str, study: Study, directory: str, sweep_spec: dict,
     ax.set_title(LABELS.get(key, key))
     plots.value_axis(ax, key)
     ax.grid(alpha=0.3)
-  # Beside the panels rather than over the curves; the saved figure's box takes it in.
-  axes[0][-1].legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.02, 1.0))
+  # Beside the panels rather than over the curves (the saved figure's box takes it in), with every
+  # line drawn in any panel: a metric an arm did not log leaves its panel without that arm.
+  drawn = {}
+  for ax in axes[0]:
+    for handle, name in zip(*ax.get_legend_handles_labels()):
+      drawn.setdefault(name, handle)
+  axes[0][-1].legend(drawn.values(), drawn.keys(), fontsize=7, loc="upper left",
+                     bbox_to_anchor=(1.02, 1.0))
   title = f"{study_name}; {study.claim_line} (mean ± std over seeds)"
   fig.suptitle(textwrap.fill(title, 60 * len(study.metrics)), fontsize=9)
   fig.tight_layout()
@@ -493,12 +517,16 @@ def report(study_name: str, study: Study, directory: str, sweep_spec: dict,
   # first arm's), named as such: they ran in another process, perhaps on another machine
   timed = {f"{r.name} (reference)": (next(iter(by_label.values()))[0], r.rows)
            for r in references if r.rows and _timed(r.rows)}
+  # the devices column, once any of them recorded where it ran
+  ran = {**{labels[n]: devices[n] for n in curves},
+         **{f"{r.name} (reference)": list(r.segments) for r in references}}
+  ran = {label: ran_on(segments) for label, segments in ran.items()} if any(ran.values()) else None
   if len(curves) + len(timed) > 1 and all(_timed(rows) for rows in by_arm.values()):
     table += ("\n\nWall time to the first arm's last evaluation during training (mean over "
               "seeds), from each run's start, compilation and evaluations included (compare arms "
               "run on one device" + ("; a reference ran in a process of its own, perhaps on "
                                      "another machine" if timed else "") + "):\n\n"
-              + "\n".join(time_to({**by_label, **timed}, study.metrics)))
+              + "\n".join(time_to({**by_label, **timed}, study.metrics, ran)))
   for reference in references:
     rows = against(by_arm, reference.name, reference.rows, study.metrics)
     table += (f"\n\nEach arm's last evaluation during training against {reference.name} at the "

@@ -7,6 +7,8 @@ A run directory holds:
 * ``checkpoint/``: the training state of every seed (``blx.training.checkpoint``);
 * ``metrics.csv``: one row per evaluation and seed, rewritten after every evaluation;
 * ``eval.json``: the final metrics of ``blx eval``;
+* ``provenance.json``: where each process that trained the run ran (device, versions) and over
+  which env steps (``read_provenance``), so that wall times are compared on like machines;
 * ``plots/``: ``training_curves.png``, and ``skills.png`` (each skill's cloud in the feature space)
   and ``paths.png`` (where each skill takes the agent) for MI-max, or ``density.png`` and
   ``discriminator.png`` for D-min;
@@ -19,6 +21,9 @@ import csv
 import dataclasses
 import json
 import os
+import platform
+import time
+from importlib import metadata
 from typing import Any, NamedTuple
 
 import jax
@@ -30,9 +35,10 @@ from blx.training import checkpoint
 
 __all__ = ["FORMAT_VERSION", "RunSpec", "Run", "RunError", "build", "load_run", "write_config",
            "write_metrics_csv", "default_obs_indices", "evaluator_for", "evaluate_run", "summarise",
-           "read_spec", "train_run", "write_eval"]
+           "read_spec", "train_run", "write_eval", "Segment", "this_machine", "read_provenance"]
 
 FORMAT_VERSION = 1
+PROVENANCE = "provenance.json"
 
 
 class RunError(ValueError):
@@ -53,6 +59,64 @@ class RunSpec:
   # A multi-agent env: the agent the (reward-free) objective pays; the others keep their env rewards
   # (``objectives.for_agent``). None: the objective is the whole env's.
   agent: str | None = None
+
+
+@dataclasses.dataclass(frozen=True)
+class Segment:
+  """One process's part of a run (``provenance.json`` holds one per start or resume): where it
+  trained, and over which env steps per seed."""
+
+  started: str            # when the process took the run up, UTC, ISO 8601
+  from_env_steps: float   # the run's env steps then (0 for a new run)
+  to_env_steps: float     # the run's env steps at this process's last evaluation
+  device: str             # jax's device kind, e.g. "NVIDIA H100 80GB HBM3" ("cpu" on a CPU)
+  platform: str           # "gpu", "cpu" or "tpu"
+  device_count: int       # the devices jax saw
+  versions: dict          # python, jax, jaxlib, mujoco, mujoco-mjx and blx: version strings
+
+
+def this_machine(from_env_steps: float = 0.0) -> Segment:
+  """A ``Segment`` for this process, starting at ``from_env_steps``."""
+  import mujoco
+
+  import blx
+
+  def version(dist: str) -> str | None:
+    try:
+      return metadata.version(dist)
+    except metadata.PackageNotFoundError:
+      return None
+
+  devices = jax.devices()
+  return Segment(
+      started=time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()), from_env_steps=from_env_steps,
+      to_env_steps=from_env_steps, device=devices[0].device_kind, platform=devices[0].platform,
+      device_count=len(devices),
+      versions={"python": platform.python_version(), "jax": jax.__version__,
+                "jaxlib": version("jaxlib"), "mujoco": mujoco.__version__,
+                "mujoco-mjx": version("mujoco-mjx"), "blx": blx.__version__})
+
+
+def read_provenance(directory: str) -> list[Segment]:
+  """The segments of the run in ``directory``, in order; ``[]`` for a run trained before blx
+  recorded them (session 31), whose machines only the notes beside it name."""
+  path = os.path.join(directory, PROVENANCE)
+  if not os.path.exists(path):
+    return []
+  with open(path) as f:
+    data = json.load(f)
+  names = {field.name for field in dataclasses.fields(Segment)}
+  try:
+    return [Segment(**{k: v for k, v in d.items() if k in names}) for d in data["segments"]]
+  except (KeyError, TypeError) as e:
+    raise RunError(f"{path}: not a provenance file of blx ({e})") from None
+
+
+def _write_provenance(directory: str, segments: list[Segment]) -> None:
+  path = os.path.join(directory, PROVENANCE)
+  with open(path + ".tmp", "w") as f:
+    json.dump({"segments": [dataclasses.asdict(s) for s in segments]}, f, indent=2)
+  os.replace(path + ".tmp", path)
 
 
 class Run(NamedTuple):
@@ -310,10 +374,15 @@ def train_run(spec: RunSpec, directory: str, *, resume: bool = False, progress=T
   history = (list(checkpoint.read_meta(checkpoint_dir).get("history", []))
              if resume and checkpoint.exists(checkpoint_dir) else [])
   show = training.print_progress if progress is True else (progress or None)
+  segments = read_provenance(directory) if exists else []
+  segments.append(this_machine(float(history[-1]["env_steps"]) if history else 0.0))
+  _write_provenance(directory, segments)
 
   def report(row: dict) -> None:
     history.append(row)
     write_metrics_csv(os.path.join(directory, "metrics.csv"), history, spec.seeds)
+    segments[-1] = dataclasses.replace(segments[-1], to_env_steps=float(row["env_steps"]))
+    _write_provenance(directory, segments)
     if show:
       show(row)
 

@@ -341,9 +341,12 @@ def test_report_draws_the_reference_and_compares_the_arms_with_it(tmp_path):
 
 def test_report_draws_and_tests_against_every_reference(tmp_path, monkeypatch):
   import matplotlib.axes
-  drawn, plot = [], matplotlib.axes.Axes.plot
+  drawn, plot, legend = [], matplotlib.axes.Axes.plot, matplotlib.axes.Axes.legend
   monkeypatch.setattr(matplotlib.axes.Axes, "plot",
                       lambda self, *a, **k: drawn.append(k.get("label")) or plot(self, *a, **k))
+  listed = []
+  monkeypatch.setattr(matplotlib.axes.Axes, "legend",
+                      lambda self, *a, **k: listed.append(list(a[1])) or legend(self, *a, **k))
   study = ablations.STUDIES["step_diayn"]
   spec = ablations.spec(study, "halfcheetah", 2, steps=2000, config={"num_evals": 2})
   name = sweep.expand(spec)[0][0]
@@ -360,6 +363,8 @@ def test_report_draws_and_tests_against_every_reference(tmp_path, monkeypatch):
   assert table.count("The final evaluations") == 1
   assert "first high's" in table
   assert {"low", "high"} <= set(drawn)  # both drawn beside the arm
+  # one legend, beside the last panel (LGR, which none of them logged), naming all three
+  assert listed == [["blx's step: 16 x 3.125 ms (unfinished)", "low", "high"]]
 
 
 def test_a_timed_reference_joins_the_wall_time_table_against_the_first_arms_target(tmp_path):
@@ -384,6 +389,39 @@ def test_a_timed_reference_joins_the_wall_time_table_against_the_first_arms_targ
   assert "a reference ran in a process of its own" in wall
   assert "| fast (reference) | eval/mi | 1.000 | 0.00 M | 30 s |" in wall
   assert "no clock" not in wall.split("\n\nEach arm")[0]  # without a clock it is left out
+
+
+def test_the_wall_time_table_names_the_devices_each_run_trained_on_once_any_recorded(tmp_path):
+  from blx.experiments import runs
+
+  def segment(device, count=1):
+    return runs.Segment("2026-11-25T00:00:00Z", 0.0, 1.0, device, "gpu", count, {})
+
+  assert ablations.ran_on([]) == "not recorded"
+  assert ablations.ran_on([segment("H200"), segment("H200"), segment("H100")]) == "H200, then H100"
+  assert ablations.ran_on([segment("H100", 2)]) == "H100 x 2"
+  study = ablations.STUDIES["step_diayn"]
+  spec = ablations.spec(study, "halfcheetah", 2, steps=2000, config={"num_evals": 2})
+  names = [name for name, _ in sweep.expand(spec)]
+  for name in names:
+    (tmp_path / name).mkdir()
+    with open(tmp_path / name / "metrics.csv", "w", newline="") as f:
+      w = csv.DictWriter(f, ["seed", "env_steps", "time", "eval/mi"])
+      w.writeheader()
+      w.writerows([{"seed": s, "env_steps": 2000, "time": 90, "eval/mi": 1.0} for s in (0, 1)])
+  reference = [{"seed": s, "env_steps": 2000, "time": 30, "eval/mi": 1.0} for s in (0, 1)]
+  table = ablations.report("step_diayn", study, str(tmp_path), spec,
+                           [ablations.Reference("old row", reference)])
+  assert "ran on" not in table  # no run recorded its device: no column of "not recorded"
+  # the first arm was trained by a blx that writes provenance.json, on a GPU and resumed on another
+  runs._write_provenance(str(tmp_path / names[0]), [segment("H200"), segment("H100")])
+  table = ablations.report("step_diayn", study, str(tmp_path), spec,
+                           [ablations.Reference("old row", reference)])
+  wall = table.split("Wall time")[1].split("\n\nEach arm")[0]
+  assert "| wall time | ran on |" in wall
+  first, second, old = [r for r in wall.splitlines() if r.startswith("| ") and "eval/mi" in r]
+  assert first.endswith("| 90 s | H200, then H100 |")
+  assert second.endswith("| 90 s | not recorded |") and old.endswith("| 30 s | not recorded |")
 
 
 def test_references_named_twice_or_too_many_are_refused_before_anything_trains(

@@ -320,6 +320,22 @@ def test_a_run_stopped_early_keeps_its_metrics_and_its_resume_continues_them(tmp
   assert steps[1] == 2 * steps[0]
   # "time" adds the resumed process's wall time (its compilation at least) to the stopped one's.
   assert float(rows[2]["time"]) > float(rows[0]["time"]) + float(rows[2]["compile_seconds"])
+  # Each process names its machine and the env steps it took the run over.
+  stopped, resumed = runs.read_provenance(out)
+  assert (stopped.from_env_steps, stopped.to_env_steps) == (0.0, steps[0])
+  assert (resumed.from_env_steps, resumed.to_env_steps) == (steps[0], steps[1])
+  import jax
+  assert resumed.device == jax.devices()[0].device_kind and resumed.platform == "cpu"
+  assert resumed.versions["jax"] == jax.__version__ and resumed.versions["mujoco-mjx"]
+  assert resumed.started >= stopped.started
+
+
+def test_provenance_is_empty_for_an_older_run_and_a_foreign_file_is_named(tmp_path):
+  from blx.experiments import runs
+  assert runs.read_provenance(str(tmp_path)) == []  # a run trained before blx recorded it
+  (tmp_path / "provenance.json").write_text(json.dumps({"segments": [{"device": "cpu"}]}))
+  with pytest.raises(runs.RunError, match="provenance.json: not a provenance file of blx"):
+    runs.read_provenance(str(tmp_path))
 
 
 def test_envs_describes_an_env(capsys):
