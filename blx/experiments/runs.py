@@ -103,13 +103,14 @@ def read_provenance(directory: str) -> list[Segment]:
   path = os.path.join(directory, PROVENANCE)
   if not os.path.exists(path):
     return []
-  with open(path) as f:
-    data = json.load(f)
   names = {field.name for field in dataclasses.fields(Segment)}
   try:
+    with open(path) as f:
+      data = json.load(f)
     return [Segment(**{k: v for k, v in d.items() if k in names}) for d in data["segments"]]
-  except (KeyError, TypeError) as e:
-    raise RunError(f"{path}: not a provenance file of blx ({e})") from None
+  except (ValueError, KeyError, TypeError, AttributeError) as e:
+    raise RunError(f"{path}: not a provenance file of blx ({e}); move it aside to go on with "
+                   "the run without its record of machines") from None
 
 
 def _write_provenance(directory: str, segments: list[Segment]) -> None:

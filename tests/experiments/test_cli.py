@@ -333,9 +333,12 @@ def test_a_run_stopped_early_keeps_its_metrics_and_its_resume_continues_them(tmp
 def test_provenance_is_empty_for_an_older_run_and_a_foreign_file_is_named(tmp_path):
   from blx.experiments import runs
   assert runs.read_provenance(str(tmp_path)) == []  # a run trained before blx recorded it
-  (tmp_path / "provenance.json").write_text(json.dumps({"segments": [{"device": "cpu"}]}))
-  with pytest.raises(runs.RunError, match="provenance.json: not a provenance file of blx"):
-    runs.read_provenance(str(tmp_path))
+  for foreign in (json.dumps({"segments": [{"device": "cpu"}]}), "[1, 2]", '{"segments": [1]}',
+                  "{not json"):
+    (tmp_path / "provenance.json").write_text(foreign)
+    with pytest.raises(runs.RunError, match="provenance.json: not a provenance file of blx.*"
+                                            "move it aside"):
+      runs.read_provenance(str(tmp_path))
 
 
 def test_envs_describes_an_env(capsys):
