@@ -67,6 +67,7 @@ import paper_tables  # noqa: E402
 
 from blx.envs.descs import PRO_ANT_STEPS  # noqa: E402
 from blx.experiments import runs  # noqa: E402
+from blx.metrics import mode_balance  # noqa: E402
 
 
 @dataclasses.dataclass(frozen=True)
@@ -151,7 +152,8 @@ STUDIES = {
                        ("eval/mi", "eval/entropy", "eval/lgr"),
                        "spectral norm makes cDIAYN's skills distinct"),
     "gp": Study("dmin", ("airl", "gail"), "gradient_penalty_weight", (0.0, 1.0, 10.0),
-                ("eval/energy_distance",), "gradient penalty does not help much; too much hurts",
+                ("eval/energy_distance", "eval/mode_balance"),
+                "gradient penalty does not help much; too much hurts",
                 labels=("no penalty (the paper's row)", "penalty weight 1", "penalty weight 10")),
     "skills": Study("mimax", ("diayn",), "num_skills", (8, 2, 4, 16),
                     ("eval/mi", "eval/entropy", "eval/lgr"),
@@ -194,7 +196,8 @@ LABELS = {"eval/mi": "MI(s, z)", "eval/entropy": "H(s)", "eval/lgr": "LGR (lower
           "eval/energy_distance": "energy distance (lower is better)",
           "eval/episode_env_reward": "episode env reward",
           "eval/episode_score": "episode score (the reward without its offsets)",
-          "eval/episode_length": "episode length (steps; short: the body fell)"}
+          "eval/episode_length": "episode length (steps; short: the body fell)",
+          "eval/mode_balance": "mode balance (1: an even split; 0: one mode)"}
 
 
 def spec(study: Study, env: str, seeds: int, steps: int | None = None,
@@ -214,6 +217,39 @@ def spec(study: Study, env: str, seeds: int, steps: int | None = None,
   varied[study.option] = list(study.values)
   return dict(base, name=f"ablation_{study.option}_{env}", objective=list(study.objectives),
               **{study.group: varied})
+
+
+BALANCE = "eval/mode_balance"
+
+
+def _shares(get) -> list | None:
+  """The modes' sample shares ``eval/mode_share/0, 1, ...`` that ``get(key)`` finds, or None."""
+  shares = []
+  while get(f"eval/mode_share/{len(shares)}") not in (None, ""):
+    shares.append(get(f"eval/mode_share/{len(shares)}"))
+  return shares or None
+
+
+def with_mode_balance(rows: list[dict]) -> list[dict]:
+  """metrics.csv rows with ``eval/mode_balance`` (``blx.metrics.mode_balance`` of the modes' shares)
+  where a run trained before blx logged it (session 31) logged the shares."""
+  out = []
+  for row in rows:
+    shares = _shares(row.get)
+    if shares and row.get(BALANCE) in (None, ""):
+      row = {**row, BALANCE: float(mode_balance([float(v) for v in shares]))}
+    out.append(row)
+  return out
+
+
+def final_with_mode_balance(result: dict) -> dict:
+  """An eval.json with ``eval/mode_balance`` per seed, as ``with_mode_balance`` for its rows."""
+  per_seed = result.get("per_seed", {})
+  shares = _shares(per_seed.get)
+  if not shares or BALANCE in per_seed:
+    return result
+  balance = mode_balance([[float(v) for v in seed] for seed in zip(*shares)])
+  return {**result, "per_seed": {**per_seed, BALANCE: [float(b) for b in balance]}}
 
 
 def _by_step(rows: list[dict], key: str) -> dict[float, dict[int, float]]:
@@ -416,14 +452,14 @@ def read_reference(name: str, path: str, metrics: tuple[str, ...]) -> Reference:
   if not os.path.isfile(csv_path):
     raise ValueError(f"{path}: not a run directory with metrics.csv, nor a metrics.csv file")
   with open(csv_path) as f:
-    rows = list(csv.DictReader(f))
+    rows = with_mode_balance(list(csv.DictReader(f)))
   if not any(_by_step(rows, key) for key in metrics):
     raise ValueError(f"{csv_path}: logs none of {list(metrics)} (train it with --eval-metrics)")
   final = None
   eval_path = os.path.join(os.path.dirname(csv_path), "eval.json")
   if os.path.isfile(eval_path):
     with open(eval_path) as f:
-      final = json.load(f)
+      final = final_with_mode_balance(json.load(f))
   return Reference(name, rows, final, tuple(runs.read_provenance(os.path.dirname(csv_path))))
 
 
@@ -459,10 +495,10 @@ def report(study_name: str, study: Study, directory: str, sweep_spec: dict,
     styles[name] = study.style(run_spec)
     devices[name] = runs.read_provenance(path)
     with open(os.path.join(path, "metrics.csv")) as f:
-      curves[name] = list(csv.DictReader(f))
+      curves[name] = with_mode_balance(list(csv.DictReader(f)))
     if os.path.exists(os.path.join(path, "eval.json")):
       with open(os.path.join(path, "eval.json")) as f:
-        arms[name] = json.load(f)
+        arms[name] = final_with_mode_balance(json.load(f))
     else:  # still training (or stopped): drawn and compared during training, not in the finals
       labels[name] += " (unfinished)"
   if not curves:

@@ -74,7 +74,7 @@ def _steps_formatter():
 
 # Curves of a count, an episode's length, are drawn from 0: a run whose episodes all last to the
 # end is then a flat line at the episode length, not one short episode magnified to fill the panel.
-FROM_ZERO = ("eval/episode_length",)
+FROM_ZERO = ("eval/episode_length", "eval/mode_balance")
 
 
 def value_axis(ax, key: str) -> None:

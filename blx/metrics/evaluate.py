@@ -33,9 +33,9 @@ from blx.objectives.base import Objective
 from blx.objectives.specs import DminSpec, MimaxSpec
 
 __all__ = ["rollout", "episode_batch", "Evaluator", "latents_for_evaluation", "eval_indices",
-           "mimax_evaluator", "dmin_evaluator", "mode_shares", "alive_share", "alive_mask",
-           "braxlines_end", "braxlines_window", "braxlines_mutual_information", "evaluate_mimax",
-           "evaluate_dmin"]
+           "mimax_evaluator", "dmin_evaluator", "mode_shares", "mode_balance", "alive_share",
+           "alive_mask", "braxlines_end", "braxlines_window", "braxlines_mutual_information",
+           "evaluate_mimax", "evaluate_dmin"]
 
 
 def rollout(env: Any, policy: Callable, params: dict, latents: jax.Array, key: jax.Array, *,
@@ -323,6 +323,8 @@ def mode_shares(x: jax.Array, means: jax.Array) -> dict[str, jax.Array]:
   1 / K for Braxlines' equal-weight mixtures). ``eval/episode_mode_share/k``: the fraction of episodes
   whose samples are mostly nearest to mode k. Together they tell a policy whose episodes each pick
   a mode from one that visits every mode within an episode, and one that covers a single mode.
+  ``eval/mode_balance``: ``mode_balance`` of the sample shares, 1 for an even split and 0 where a
+  mode is never visited.
   """
   nearest = jnp.argmin(((x[..., None, :] - means) ** 2).sum(-1), axis=-1)  # [episodes, samples]
   onehot = jax.nn.one_hot(nearest, len(means))
@@ -332,7 +334,18 @@ def mode_shares(x: jax.Array, means: jax.Array) -> dict[str, jax.Array]:
   for k in range(len(means)):
     out[f"eval/mode_share/{k}"] = per_episode[:, k].mean()
     out[f"eval/episode_mode_share/{k}"] = majority[k]
+  out["eval/mode_balance"] = mode_balance(per_episode.mean(0))
   return out
+
+
+def mode_balance(shares: jax.Array) -> jax.Array:
+  """How evenly samples share out among K modes: K times the least share, over the last axis of
+  ``shares [..., K]`` (each row summing to 1). 1 for an even split (the share of an equal-weight
+  target), 0 where a mode gets no sample: a policy that commits to one mode of two scores 0, one
+  that splits 60/40 scores 0.8. It says nothing of reaching the modes (a body standing still
+  midway splits evenly): read it beside the energy distance."""
+  shares = jnp.asarray(shares)
+  return shares.shape[-1] * shares.min(-1)
 
 
 def evaluate_mimax(env: Any, objective: Objective, params: dict, key: jax.Array, *,

@@ -547,3 +547,31 @@ def test_an_interrupted_study_says_how_to_continue_and_exits_130_without_a_repor
   assert stop.value.code == 130
   assert f"[ablations] {sweep.INTERRUPTED}" in capsys.readouterr().err
   assert not reported
+
+
+def test_runs_from_before_mode_balance_get_it_from_their_modes_shares(tmp_path):
+  study = ablations.STUDIES["gp"]
+  assert "eval/mode_balance" in study.metrics
+  spec = ablations.spec(study, "ant", 2)
+  points = dict((study.value(r), name) for name, r in sweep.expand(spec) if r.objective == "airl")
+  shares = {0.0: ([1.0, 0.9], [0.0, 0.1]), 1.0: ([0.5, 0.6], [0.5, 0.4])}  # seeds 0 and 1
+  for value, (zero, one) in shares.items():
+    d = tmp_path / points[value]
+    d.mkdir()
+    (d / "eval.json").write_text(json.dumps({"objective": "airl", "per_seed": {
+        "eval/energy_distance": [2.0, 2.1], "eval/mode_share/0": zero, "eval/mode_share/1": one}}))
+    with open(d / "metrics.csv", "w", newline="") as f:
+      w = csv.DictWriter(f, ["seed", "env_steps", "time", "eval/energy_distance",
+                             "eval/mode_share/0", "eval/mode_share/1"])
+      w.writeheader()
+      w.writerows([{"seed": s, "env_steps": 1e6, "time": 10, "eval/energy_distance": 2.0,
+                    "eval/mode_share/0": zero[s], "eval/mode_share/1": one[s]} for s in (0, 1)])
+  table = ablations.report("gp", study, str(tmp_path), spec)
+  finals = table.split("Wall time")[0]
+  # 2 x the least share per seed: committed (0, 0.2) and split (1.0, 0.8)
+  assert "| airl, no penalty (the paper's row) | eval/mode_balance | 0.100 ± 0.100 (2) |" in finals
+  assert "| airl, penalty weight 1 | eval/mode_balance | 0.900 ± 0.100 (2) |" in finals
+  # a run that logged the balance itself keeps its own value
+  logged = [{"eval/mode_share/0": "0.5", "eval/mode_share/1": "0.5", "eval/mode_balance": "0.7"}]
+  assert ablations.with_mode_balance(logged)[0]["eval/mode_balance"] == "0.7"
+  assert ablations.with_mode_balance([{"eval/mi": "1.0"}]) == [{"eval/mi": "1.0"}]  # no modes

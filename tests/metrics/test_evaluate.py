@@ -83,6 +83,7 @@ def test_dmin_helper_matches_a_direct_energy_distance():
   # Every sample sits on mode 0, (4, 0): the policy covers one of the target's two modes.
   assert out["eval/mode_share/0"] == 1.0 and out["eval/mode_share/1"] == 0.0
   assert out["eval/episode_mode_share/0"] == 1.0
+  assert out["eval/mode_balance"] == 0.0  # committed to one mode
 
 
 def test_mode_shares_tell_episodes_that_pick_a_mode_from_episodes_that_visit_both():
@@ -96,6 +97,17 @@ def test_mode_shares_tell_episodes_that_pick_a_mode_from_episodes_that_visit_bot
   np.testing.assert_allclose(out["eval/mode_share/1"], (0 + 1 + 0.25) / 3, rtol=1e-6)
   np.testing.assert_allclose(out["eval/episode_mode_share/0"], 2 / 3, rtol=1e-6)
   np.testing.assert_allclose(out["eval/episode_mode_share/1"], 1 / 3, rtol=1e-6)
+  # the least sample share, 1.25 / 3, times the two modes
+  np.testing.assert_allclose(out["eval/mode_balance"], 2 * 1.25 / 3, rtol=1e-6)
+
+
+def test_mode_balance_is_one_for_an_even_split_and_zero_for_a_mode_never_visited():
+  np.testing.assert_allclose(metrics.mode_balance(jnp.array([0.5, 0.5])), 1.0)
+  np.testing.assert_allclose(metrics.mode_balance(jnp.array([0.6, 0.4])), 0.8, rtol=1e-6)
+  np.testing.assert_allclose(metrics.mode_balance(jnp.array([1.0, 0.0])), 0.0)
+  # K modes, per row of a batch: 3 x the least share
+  np.testing.assert_allclose(metrics.mode_balance(jnp.array([[0.2, 0.3, 0.5], [1 / 3] * 3])),
+                             [0.6, 1.0], rtol=1e-6)
 
 
 def test_evaluation_samples_actions_unless_deterministic():
