@@ -114,9 +114,15 @@ def read_provenance(directory: str) -> list[Segment]:
 
 
 def _write_provenance(directory: str, segments: list[Segment]) -> None:
-  path = os.path.join(directory, PROVENANCE)
+  _write_json(os.path.join(directory, PROVENANCE),
+              {"segments": [dataclasses.asdict(s) for s in segments]})
+
+
+def _write_json(path: str, data: Any, **dump) -> None:
+  """Writes ``data`` to ``path`` as indented JSON, whole or not at all: a killed process leaves
+  the file before the write (a temporary file, then ``os.replace``)."""
   with open(path + ".tmp", "w") as f:
-    json.dump({"segments": [dataclasses.asdict(s) for s in segments]}, f, indent=2)
+    json.dump(data, f, indent=2, **dump)
   os.replace(path + ".tmp", path)
 
 
@@ -204,10 +210,7 @@ def write_config(directory: str, spec: RunSpec, env) -> None:
           "desc": env.desc, "objective": spec.objective,
           "objective_options": spec.objective_options,
           "ppo": spec.ppo, "seeds": list(spec.seeds), "agent": spec.agent}
-  tmp = os.path.join(directory, "config.json.tmp")
-  with open(tmp, "w") as f:
-    json.dump(data, f, indent=2, default=json_default)
-  os.replace(tmp, os.path.join(directory, "config.json"))
+  _write_json(os.path.join(directory, "config.json"), data, default=json_default)
 
 
 def json_default(x):
@@ -402,8 +405,5 @@ def write_eval(run: Run) -> dict:
   values = evaluate_run(run)
   out = {"per_seed": values, "summary": summarise(values), "seeds": list(run.spec.seeds),
          "objective": run.spec.objective, "env": run.spec.env}
-  path = os.path.join(run.directory, "eval.json")
-  with open(path + ".tmp", "w") as f:
-    json.dump(out, f, indent=2)
-  os.replace(path + ".tmp", path)
+  _write_json(os.path.join(run.directory, "eval.json"), out)
   return out
