@@ -283,10 +283,14 @@ def curve(rows: list[dict], key: str) -> tuple[list[float], list[float], list[fl
 
 def welch_cells(values, ref) -> list[str]:
   """The two table cells of Welch's t-test of ``values`` against ``ref``: t, and p with three
-  decimals or "< 0.001" below that; both empty where either side has fewer than 2 values."""
+  decimals or "< 0.001" below that; both empty where either side has fewer than 2 values, and
+  "no spread" where both sides are constant (every episode of both arms ran 1,000 steps), which
+  the test cannot tell apart."""
   from scipy import stats
   if not (values and ref and len(values) > 1 and len(ref) > 1):
     return ["", ""]
+  if len(set(values)) == 1 and len(set(ref)) == 1:
+    return ["", "equal, no spread" if values[0] == ref[0] else "no spread"]
   test = stats.ttest_ind(values, ref, equal_var=False)
   return [f"{test.statistic:+.2f}",
           "< 0.001" if test.pvalue < 0.001 else f"{test.pvalue:.3f}"]
@@ -381,12 +385,19 @@ BETTER = {"eval/mi": 1, "eval/entropy": 1, "eval/lgr": -1, "eval/energy_distance
 
 def ran_on(segments: list[runs.Segment]) -> str:
   """The devices a run trained on, in order (``runs.read_provenance``), e.g. "NVIDIA H200, then
-  NVIDIA H100 80GB HBM3"; "not recorded" for a run from before blx recorded them."""
-  kinds = []
+  NVIDIA H100 80GB HBM3"; "not recorded" for a run from before blx recorded them, and for the env
+  steps a run took before it did (a run begun by an older blx and resumed by a newer one):
+  "not recorded to 37.4 M steps, then NVIDIA H200"."""
+  kinds, reached = [], 0.0
   for segment in segments:
+    if segment.from_env_steps > reached:
+      stretch = (f"from {reached / 1e6:.1f} M " if reached else "") + \
+          f"to {segment.from_env_steps / 1e6:.1f} M steps"
+      kinds.append(f"not recorded {stretch}")
     kind = segment.device + (f" x {segment.device_count}" if segment.device_count > 1 else "")
     if not kinds or kinds[-1] != kind:
       kinds.append(kind)
+    reached = max(reached, segment.to_env_steps)
   return ", then ".join(kinds) or "not recorded"
 
 
@@ -472,6 +483,15 @@ def _timed(rows: list[dict]) -> bool:
   return all(row.get("time") for row in rows)
 
 
+def _other_budget(path: str, run_spec: runs.RunSpec) -> str:
+  """" (a 10 M budget)" for a label where the run in ``path`` was trained for a budget other than
+  the study's (an arm of an earlier, shorter report, kept until its rerun finishes); else ""."""
+  if not os.path.exists(os.path.join(path, "config.json")):
+    return ""
+  trained, asked = (s.ppo.get("num_timesteps") for s in (runs.read_spec(path), run_spec))
+  return f" (a {trained / 1e6:g} M budget)" if trained and asked and trained != asked else ""
+
+
 def report(study_name: str, study: Study, directory: str, sweep_spec: dict,
            references: tuple[Reference, ...] | list[Reference] = ()) -> str:
   """Draws ``curves.png`` and writes ``ablation.md`` for the arms of ``sweep_spec`` under
@@ -490,7 +510,7 @@ def report(study_name: str, study: Study, directory: str, sweep_spec: dict,
     path = os.path.join(directory, name)
     if not os.path.exists(os.path.join(path, "metrics.csv")):
       continue
-    labels[name] = study.label(name, run_spec)
+    labels[name] = study.label(name, run_spec) + _other_budget(path, run_spec)
     objectives[name] = run_spec.objective
     styles[name] = study.style(run_spec)
     devices[name] = runs.read_provenance(path)

@@ -2,6 +2,7 @@
 their comparison."""
 
 import csv
+import dataclasses
 import inspect
 import json
 import os
@@ -161,6 +162,14 @@ def test_compare_tests_each_arm_against_the_first_arm_of_its_objective():
   t, p = off.strip("| ").split(" | ")[-2:]
   assert float(t) < -5 and p == "< 0.001"  # not "0.000"
   assert "0.500 ± 0.071 (5)" in off
+
+
+def test_welch_cells_say_no_spread_where_both_arms_are_constant_not_nan():
+  # every episode of both arms ran its 1,000 steps: the t-test is undefined, not a number
+  assert ablations.welch_cells([1000.0] * 10, [1000.0] * 10) == ["", "equal, no spread"]
+  assert ablations.welch_cells([999.0] * 10, [1000.0] * 10) == ["", "no spread"]
+  assert ablations.welch_cells([999.0, 1000.0], [1000.0] * 10)[1] == "0.500"  # one side spreads
+  assert ablations.welch_cells([1.0], [1.0, 2.0]) == ["", ""]
 
 
 def test_report_draws_and_tabulates_the_evaluated_arms(tmp_path):
@@ -400,6 +409,12 @@ def test_the_wall_time_table_names_the_devices_each_run_trained_on_once_any_reco
   assert ablations.ran_on([]) == "not recorded"
   assert ablations.ran_on([segment("H200"), segment("H200"), segment("H100")]) == "H200, then H100"
   assert ablations.ran_on([segment("H100", 2)]) == "H100 x 2"
+  # a run begun before blx recorded devices, resumed after: the first 37.4 M steps are unknown
+  resumed = runs.Segment("2026-11-26T00:41:20Z", 37.4e6, 46.7e6, "H200", "gpu", 1, {})
+  assert ablations.ran_on([resumed]) == "not recorded to 37.4 M steps, then H200"
+  later = runs.Segment("2026-11-26T00:50:00Z", 50e6, 62.3e6, "H200", "gpu", 1, {})
+  assert ablations.ran_on([resumed, later]) == ("not recorded to 37.4 M steps, then H200, then "
+                                                "not recorded from 46.7 M to 50.0 M steps, then H200")
   study = ablations.STUDIES["step_diayn"]
   spec = ablations.spec(study, "halfcheetah", 2, steps=2000, config={"num_evals": 2})
   names = [name for name, _ in sweep.expand(spec)]
@@ -422,6 +437,23 @@ def test_the_wall_time_table_names_the_devices_each_run_trained_on_once_any_reco
   first, second, old = [r for r in wall.splitlines() if r.startswith("| ") and "eval/mi" in r]
   assert first.endswith("| 90 s | H200, then H100 |")
   assert second.endswith("| 90 s | not recorded |") and old.endswith("| 30 s | not recorded |")
+
+
+def test_an_arm_trained_for_another_budget_than_the_reports_is_labelled_with_its_own(tmp_path):
+  import types
+  from blx.experiments import runs
+  study = ablations.STUDIES["push_scale"]
+  spec = ablations.spec(study, "ant", 2, steps=3000, config={"num_evals": 2})
+  (first, first_spec), (second, second_spec) = sweep.expand(spec)[:2]
+  for name, run_spec, steps in ((first, first_spec, 3000), (second, second_spec, 1000)):
+    trained = dataclasses.replace(run_spec, ppo={**run_spec.ppo, "num_timesteps": steps})
+    runs.write_config(str(tmp_path / name), trained, types.SimpleNamespace(desc={}))
+    _write_metrics(tmp_path / name / "metrics.csv", {(0, 1000): 1.0, (1, 1000): 2.0},
+                   key="eval/episode_score")
+  table = ablations.report("push_scale", study, str(tmp_path), spec)
+  rows = [r for r in table.splitlines() if "eval/episode_score" in r]
+  assert rows[0].startswith("| scale 1 (the env's) (unfinished) |")  # the report's own budget
+  assert rows[1].startswith("| scale 0.2 (a 0.001 M budget) (unfinished) |")
 
 
 def test_references_named_twice_or_too_many_are_refused_before_anything_trains(
