@@ -66,7 +66,7 @@ sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import paper_tables  # noqa: E402
 
 from blx.envs.descs import PRO_ANT_STEPS  # noqa: E402
-from blx.experiments import runs  # noqa: E402
+from blx.experiments import cli, runs  # noqa: E402
 from blx.metrics import mode_balance  # noqa: E402
 
 
@@ -458,7 +458,9 @@ class Reference:
 def read_reference(name: str, path: str, metrics: tuple[str, ...]) -> Reference:
   """The run at ``path`` (a run directory or its metrics.csv) as a ``Reference``, with the
   eval.json beside its metrics.csv where there is one; refuses one that logs none of ``metrics``
-  (a run trained without ``--eval-metrics``)."""
+  (a run trained without ``--eval-metrics``). A run's files committed under a prefix, as the
+  paper's rows in ``benchmarks/paper/`` (``airl_metrics.csv``), take the eval.json of their
+  prefix (``airl_eval.json``) and have no provenance."""
   csv_path = os.path.join(path, "metrics.csv") if os.path.isdir(path) else path
   if not os.path.isfile(csv_path):
     raise ValueError(f"{path}: not a run directory with metrics.csv, nor a metrics.csv file")
@@ -466,12 +468,14 @@ def read_reference(name: str, path: str, metrics: tuple[str, ...]) -> Reference:
     rows = with_mode_balance(list(csv.DictReader(f)))
   if not any(_by_step(rows, key) for key in metrics):
     raise ValueError(f"{csv_path}: logs none of {list(metrics)} (train it with --eval-metrics)")
-  final = None
-  eval_path = os.path.join(os.path.dirname(csv_path), "eval.json")
-  if os.path.isfile(eval_path):
+  final, base = None, os.path.basename(csv_path)
+  prefix = base[:-len("metrics.csv")] if base.endswith("metrics.csv") else None
+  eval_path = os.path.join(os.path.dirname(csv_path), f"{prefix}eval.json")
+  if prefix is not None and os.path.isfile(eval_path):
     with open(eval_path) as f:
       final = final_with_mode_balance(json.load(f))
-  return Reference(name, rows, final, tuple(runs.read_provenance(os.path.dirname(csv_path))))
+  segments = runs.read_provenance(os.path.dirname(csv_path)) if prefix == "" else []
+  return Reference(name, rows, final, tuple(segments))
 
 
 REFERENCE_STYLES = ("--", ":", "-.")  # one line style per reference, all dark grey
@@ -583,17 +587,23 @@ def report(study_name: str, study: Study, directory: str, sweep_spec: dict,
               "run on one device" + ("; a reference ran in a process of its own, perhaps on "
                                      "another machine" if timed else "") + "):\n\n"
               + "\n".join(time_to({**by_label, **timed}, study.metrics, ran)))
+  finished = [float(r["env_steps"]) for n in arms for r in curves[n] if r.get("env_steps")]
+  trained = max(finished) if finished else None
   for reference in references:
     rows = against(by_arm, reference.name, reference.rows, study.metrics)
     table += (f"\n\nEach arm's last evaluation during training against {reference.name} at the "
               "same env steps:\n\n" + "\n".join(rows))
-    if reference.final is not None:
-      final = {reference.name: reference.final, **labelled}
-      table += (f"\n\nThe final evaluations (eval.json), first {reference.name}'s (arms of "
-                "another objective are tested against their own first arm):\n\n"
-                + "\n".join(compare(final, study.metrics)))
-  finished = [float(r["env_steps"]) for n in arms for r in curves[n] if r.get("env_steps")]
-  trained = max(finished) if finished else None
+    if reference.final is None or trained is None:
+      continue
+    # a reference may have trained another budget (e.g. the full row of a shorter study): say so
+    ended = max((float(r["env_steps"]) for r in reference.rows if r.get("env_steps")), default=0.0)
+    budgets = (f"; the reference's at {ended / 1e6:.2f} M env steps, the arms' at "
+               f"{trained / 1e6:.2f} M"
+               if abs(ended - trained) > 0.01 * trained else "")
+    final = {reference.name: reference.final, **labelled}
+    table += (f"\n\nThe final evaluations (eval.json), first {reference.name}'s (arms of "
+              f"another objective are tested against their own first arm{budgets}):\n\n"
+              + "\n".join(compare(final, study.metrics)))
   with open(os.path.join(directory, "ablation.md"), "w") as f:
     f.write(f"# {study_name}\n\n{study.claim_line[0].upper()}{study.claim_line[1:]}.\n\n"
             f"{budget_line(study, sweep_spec, trained)}\n\n{table}\n")
@@ -686,4 +696,4 @@ def main():
 
 
 if __name__ == "__main__":
-  main()
+  cli.run_main(main)  # an interrupted study ends at once, its checkpoints kept

@@ -37,7 +37,7 @@ import math
 import os
 import sys
 
-from blx.experiments import sweep
+from blx.experiments import cli, sweep
 from blx.training.config import ppo_defaults
 
 # The paper's rows (Tables 3 and 4; 10 seeds): env -> algorithm -> metric -> (mean, std). -LGR and
@@ -295,4 +295,4 @@ def main():
 
 
 if __name__ == "__main__":
-  main()
+  cli.run_main(main)  # an interrupted study ends at once, its checkpoints kept

@@ -222,14 +222,61 @@ def _print_summary(summary: dict) -> None:
 
 def cmd_eval(args) -> int:
   from blx.experiments import runs
+  if args.key_seeds is not None:
+    key_seeds = _key_seeds(args.key_seeds)  # checked before the run is loaded and compiled
   run = runs.load_run(args.dir)
-  result = runs.write_eval(run)
+  if args.key_seeds is None:
+    result = runs.write_eval(run)
+    if args.json:
+      print(json.dumps(result, indent=2))
+    else:
+      print(f"{run.spec.objective} on {run.spec.env}, seeds {list(run.spec.seeds)}")
+      _print_summary(result["summary"])
+    return 0
+  result = across_keys(key_seeds, runs.evaluate_run_keys(run, key_seeds))
+  print(f"[blx] evaluated with evaluation keys {key_seeds}; eval.json (key 0) is left as it was",
+        file=sys.stderr)
   if args.json:
     print(json.dumps(result, indent=2))
   else:
-    print(f"{run.spec.objective} on {run.spec.env}, seeds {list(run.spec.seeds)}")
-    _print_summary(result["summary"])
+    print(f"{run.spec.objective} on {run.spec.env}, seeds {list(run.spec.seeds)}: the mean over "
+          f"seeds per evaluation key {key_seeds}; the std of that mean across keys; the mean over "
+          "seeds of each seed's std across keys (the evaluation's own noise)")
+    width = max((len(k) for k in result["across_keys"]), default=10)
+    for key, s in result["across_keys"].items():
+      means = "  ".join(f"{m:.4f}" for m in s["mean_per_key"])
+      print(f"{key:{width}s}  {means}   ± {s['std_of_mean']:.4f}   per seed ± "
+            f"{s['seed_std']:.4f}")
   return 0
+
+
+def _key_seeds(text: str) -> list[int]:
+  try:
+    seeds = [int(s) for s in text.split(",")]
+  except ValueError:
+    seeds = []
+  if not seeds or min(seeds) < 0 or max(seeds) >= 2**31 or len(set(seeds)) < len(seeds):
+    raise UsageError(f"--key-seeds {text!r}: give distinct ints in 0..2**31 - 1 separated by "
+                     "commas, e.g. --key-seeds 0,1,2 (0 is eval.json's key)")
+  return seeds
+
+
+def across_keys(key_seeds: list[int], per_key: list[dict[str, list[float]]]) -> dict:
+  """A run evaluated once per evaluation key (``runs.evaluate_run_keys``): per key, the values
+  per seed and their summary; per metric, the mean over seeds per key, the std of that mean
+  across keys, and the mean over seeds of each seed's std across keys (population stds, as
+  ``runs.summarise``): how far the final number moves with the evaluation's own sampling."""
+  import numpy as np
+  from blx.experiments import runs
+  table = {}
+  for metric in per_key[0]:
+    values = np.asarray([v[metric] for v in per_key])  # [keys, seeds]
+    table[metric] = {"mean_per_key": values.mean(axis=1).tolist(),
+                     "std_of_mean": float(values.mean(axis=1).std()),
+                     "seed_std": float(values.std(axis=0).mean())}
+  return {"key_seeds": key_seeds,
+          "per_key": [{"per_seed": v, "summary": runs.summarise(v)} for v in per_key],
+          "across_keys": table}
 
 
 MAX_FRAME = 4096  # pixels per side
@@ -381,6 +428,9 @@ def _parser() -> argparse.ArgumentParser:
   p = sub.add_parser("eval", help="the metrics of a trained run")
   p.add_argument("dir")
   p.add_argument("--json", action="store_true")
+  p.add_argument("--key-seeds", default=None, metavar="K,K,...",
+                 help="evaluate once per evaluation key (e.g. 0,1,2) and report how far each "
+                      "metric moves with the evaluation's own sampling; eval.json is not written")
   p.set_defaults(fn=cmd_eval)
 
   p = sub.add_parser("render", help="a video of rollouts (one per skill for MI-max)")
@@ -432,5 +482,33 @@ def main(argv=None) -> int:
     return 2
 
 
+INTERRUPTED_STATUS = 130  # a shell's status for a program ended by Ctrl-C (128 + SIGINT)
+
+
+def run_main(main_fn=None) -> None:
+  """Runs a command-line program's ``main_fn`` (default the ``blx`` command's :func:`main`) and
+  exits with its status (its return value, or the code of the ``SystemExit`` it raised).
+
+  A program stopped by Ctrl-C (status 130) has kept its run's last checkpoint by then, and ends
+  at once: its output is flushed and the interpreter is left without its shutdown. That shutdown
+  would wait for the chunk still running on the device (up to a whole chunk, minutes, on a CPU)
+  or stop the thread that dispatched it inside XLA, which aborts the process on a GPU
+  ("FATAL: exception not rethrown", status 134). For ``if __name__ == "__main__"`` and the console
+  script; tests call ``main`` itself. A Ctrl-C that ``main_fn`` does not catch itself (one
+  outside training, e.g. in ``blx eval``) is the same exit, with one line instead of a traceback."""
+  try:
+    status = (main_fn or main)()
+  except SystemExit as e:
+    status = e.code
+  except KeyboardInterrupt:
+    print(f"{os.path.basename(sys.argv[0]) or 'blx'}: interrupted", file=sys.stderr)
+    status = INTERRUPTED_STATUS
+  if status == INTERRUPTED_STATUS:
+    sys.stdout.flush()
+    sys.stderr.flush()
+    os._exit(INTERRUPTED_STATUS)
+  sys.exit(status)
+
+
 if __name__ == "__main__":
-  sys.exit(main())
+  run_main()

@@ -24,7 +24,7 @@ import os
 import platform
 import time
 from importlib import metadata
-from typing import Any, NamedTuple
+from typing import Any, NamedTuple, Sequence
 
 import jax
 import numpy as np
@@ -34,8 +34,9 @@ from blx.experiments import plots
 from blx.training import checkpoint
 
 __all__ = ["FORMAT_VERSION", "RunSpec", "Run", "RunError", "build", "load_run", "write_config",
-           "write_metrics_csv", "default_obs_indices", "evaluator_for", "evaluate_run", "summarise",
-           "read_spec", "train_run", "write_eval", "Segment", "this_machine", "read_provenance"]
+           "write_metrics_csv", "default_obs_indices", "evaluator_for", "evaluate_run",
+           "evaluate_run_keys", "summarise", "read_spec", "train_run", "write_eval", "Segment",
+           "this_machine", "read_provenance"]
 
 FORMAT_VERSION = 1
 PROVENANCE = "provenance.json"
@@ -321,10 +322,16 @@ def evaluator_for(env, objective, *, quick: bool = False):
 
 def evaluate_run(run: Run, *, key_seed: int = 0) -> dict[str, list[float]]:
   """The final metrics of every seed: MI-max -> MI, H(s), LGR, coverage; D-min -> energy
-  distance; always the episode reward and score of deterministic episodes."""
+  distance; always the episode reward and score of deterministic episodes. ``key_seed`` seeds the
+  evaluation's own sampling (its episodes' starts, sampled actions, goals); eval.json's is 0."""
+  return evaluate_run_keys(run, (key_seed,))[0]
+
+
+def evaluate_run_keys(run: Run, key_seeds: Sequence[int]) -> list[dict[str, list[float]]]:
+  """:func:`evaluate_run` once per evaluation key seed in ``key_seeds``, compiled once: how much
+  of a final number is the evaluation's own sampling rather than the policy (e.g. a policy that
+  picks one of the target's modes per episode, scored on 10 episodes)."""
   trainer = training.make_trainer(run.env, run.objective, run.config)
-  keys = jax.random.split(jax.random.PRNGKey(key_seed), len(run.spec.seeds))
-  results: dict[str, list[float]] = {}
   evaluator = evaluator_for(run.env, run.objective)
 
   def one(params, key):
@@ -335,9 +342,12 @@ def evaluate_run(run: Run, *, key_seed: int = 0) -> dict[str, list[float]]:
       out.update(evaluator(trainer.policy, params, key))
     return out
 
-  values = jax.jit(jax.vmap(one))(run.params, keys)
-  for k, v in values.items():
-    results[k] = [float(x) for x in np.asarray(v)]
+  evaluate = jax.jit(jax.vmap(one))
+  results = []
+  for key_seed in key_seeds:
+    keys = jax.random.split(jax.random.PRNGKey(key_seed), len(run.spec.seeds))
+    values = evaluate(run.params, keys)
+    results.append({k: [float(x) for x in np.asarray(v)] for k, v in values.items()})
   return results
 
 

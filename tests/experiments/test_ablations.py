@@ -311,6 +311,12 @@ def test_read_reference_takes_a_run_directory_or_its_csv_and_refuses_one_without
     ablations.read_reference("row", str(tmp_path), ("eval/energy_distance",))
   with pytest.raises(ValueError, match="not a run directory with metrics.csv"):
     ablations.read_reference("row", str(tmp_path / "missing"), ("eval/mi",))
+  # a paper row committed under a prefix (benchmarks/paper/brax_humanoid/airl_metrics.csv) takes
+  # its own eval.json, not the directory's
+  _write_metrics(tmp_path / "airl_metrics.csv", {(0, 10): 0.7})
+  (tmp_path / "airl_eval.json").write_text(json.dumps(_arm("airl", [2.0, 2.2])))
+  ref = ablations.read_reference("row", str(tmp_path / "airl_metrics.csv"), ("eval/mi",))
+  assert ref.rows[0]["eval/mi"] == "0.7" and ref.final["per_seed"]["eval/mi"] == [2.0, 2.2]
 
 
 def test_report_draws_the_reference_and_compares_the_arms_with_it(tmp_path):
@@ -332,10 +338,15 @@ def test_report_draws_the_reference_and_compares_the_arms_with_it(tmp_path):
   assert "final evaluations" not in table  # a reference without its eval.json
   assert os.path.getsize(tmp_path / "curves.png") > 10_000
   assert "trained (whole" not in (tmp_path / "ablation.md").read_text()  # the 2,000 asked
-  # With the reference's eval.json, each arm's final evaluation is tested against the reference's.
+  # With the reference's eval.json, each arm's final evaluation is tested against the reference's,
+  # whose budget (9,000 steps) the heading names where it is not the arms' (2,000).
   final = _arm("diayn", [0.2, 0.3, 0.4])
   table = ablations.report("step_diayn", study, str(tmp_path), spec,
                            [ablations.Reference("the row", reference, final)])
+  assert "first arm; the reference's at 0.01 M env steps, the arms' at 0.00 M):" in table
+  same = ablations.report("step_diayn", study, str(tmp_path), spec, [ablations.Reference(
+      "the row", [r for r in reference if r["env_steps"] <= 2000], final)])
+  assert "own first arm):" in same and "reference's at" not in same
   from scipy import stats
   want = stats.ttest_ind([1.0, 1.2], [0.2, 0.3, 0.4], equal_var=False)
   tail = table.split("The final evaluations")[1]
@@ -361,6 +372,7 @@ def test_report_draws_and_tests_against_every_reference(tmp_path, monkeypatch):
   name = sweep.expand(spec)[0][0]
   (tmp_path / name).mkdir()
   _write_metrics(tmp_path / name / "metrics.csv", {(0, 2000): 1.0, (1, 2000): 1.2})
+  (tmp_path / name / "eval.json").write_text(json.dumps(_arm("diayn", [1.0, 1.2])))
   low = [{"seed": s, "env_steps": 2000, "eval/mi": 0.2 + 0.1 * s} for s in (0, 1)]
   high = [{"seed": s, "env_steps": 2000, "eval/mi": 2.0 + 0.2 * s} for s in (0, 1)]
   table = ablations.report("step_diayn", study, str(tmp_path), spec,
@@ -373,7 +385,7 @@ def test_report_draws_and_tests_against_every_reference(tmp_path, monkeypatch):
   assert "first high's" in table
   assert {"low", "high"} <= set(drawn)  # both drawn beside the arm
   # one legend, beside the last panel (LGR, which none of them logged), naming all three
-  assert listed == [["blx's step: 16 x 3.125 ms (unfinished)", "low", "high"]]
+  assert listed == [["blx's step: 16 x 3.125 ms", "low", "high"]]
 
 
 def test_a_timed_reference_joins_the_wall_time_table_against_the_first_arms_target(tmp_path):

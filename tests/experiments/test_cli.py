@@ -65,6 +65,29 @@ def test_eval_reports_the_mimax_metrics_as_json(trained, capsys):
   assert result["summary"]["eval/mi"]["mean"] <= result["summary"]["eval/entropy"]["mean"] + 1e-5
 
 
+def test_eval_with_several_keys_reports_the_evaluations_own_noise_and_keeps_eval_json(trained,
+                                                                                       capsys):
+  path = os.path.join(trained, "eval.json")
+  before = open(path).read()
+  assert cli.main(["eval", trained, "--key-seeds", "0,1,2", "--json"]) == 0
+  out = capsys.readouterr()
+  result = json.loads(out.out)
+  assert "eval.json (key 0) is left as it was" in out.err and open(path).read() == before
+  assert result["key_seeds"] == [0, 1, 2] and len(result["per_key"]) == 3
+  # key 0 is the evaluation eval.json holds; the other keys sample other episodes
+  assert result["per_key"][0]["per_seed"] == json.loads(before)["per_seed"]
+  lgr = [k["per_seed"]["eval/lgr"] for k in result["per_key"]]
+  assert lgr[1] != lgr[0] and lgr[2] != lgr[1]
+  row = result["across_keys"]["eval/lgr"]
+  means = np.mean(lgr, axis=1)
+  np.testing.assert_allclose(row["mean_per_key"], means, rtol=1e-6)
+  np.testing.assert_allclose(row["std_of_mean"], np.std(means), rtol=1e-6)
+  np.testing.assert_allclose(row["seed_std"], np.std(lgr, axis=0).mean(), rtol=1e-6)
+  assert cli.main(["eval", trained, "--key-seeds", "0,1"]) == 0  # the table, one line a metric
+  lines = capsys.readouterr().out.splitlines()
+  assert any(line.startswith("eval/lgr ") and "per seed ±" in line for line in lines)
+
+
 def test_load_run_rebuilds_env_objective_and_params(trained):
   import blx
   run = blx.load_run(trained)
@@ -178,6 +201,43 @@ def test_an_interrupted_sweep_says_how_to_continue_and_exits_130(tmp_path, capsy
   assert f"[blx] {sweep.INTERRUPTED}" in capsys.readouterr().err
 
 
+_PROGRAM = """
+import atexit, sys, threading, time
+from blx.experiments import cli
+atexit.register(lambda: print("shutdown ran", flush=True))
+def main():
+  # work still in flight, which the interpreter's shutdown would wait for (as for a chunk on
+  # the device): a thread that is not a daemon, asleep for ten minutes
+  threading.Thread(target=time.sleep, args=(600,)).start() if sys.argv[1] == "130" else None
+  print("[program] stopped", end="")  # unflushed, to a pipe
+  if sys.argv[2] == "raise":  # a Ctrl-C that main does not catch
+    raise KeyboardInterrupt
+  return int(sys.argv[1]) if sys.argv[2] == "return" else sys.exit(int(sys.argv[2]))
+cli.run_main(main)
+"""
+
+
+@pytest.mark.parametrize("how", ["return", "130", "raise"])
+def test_run_main_ends_an_interrupted_program_at_once_with_its_output(how):
+  # status 130 (returned, raised as SystemExit by ablations.py, or a Ctrl-C main let through):
+  # no wait for the work in flight, and the output is flushed; the shutdown is skipped
+  proc = subprocess.run([sys.executable, "-c", _PROGRAM, "130", how], capture_output=True,
+                        text=True, env={**os.environ, "PYTHONPATH": ROOT}, timeout=120)
+  assert proc.returncode == 130, proc.stderr[-2000:]
+  assert proc.stdout == "[program] stopped"
+  assert "Traceback" not in proc.stderr
+  assert (proc.stderr.strip().endswith("interrupted")) == (how == "raise")
+
+
+def test_run_main_exits_other_programs_with_their_status_after_the_shutdown():
+  for status, how in ((0, "return"), (2, "2")):
+    proc = subprocess.run([sys.executable, "-c", _PROGRAM, str(status), how],
+                          capture_output=True, text=True, env={**os.environ, "PYTHONPATH": ROOT},
+                          timeout=120)
+    assert proc.returncode == status, proc.stderr[-2000:]
+    assert proc.stdout == "[program] stoppedshutdown ran\n"
+
+
 def test_a_task_sweeps_table_gives_the_episode_length_beside_the_score(tmp_path):
   # Two legs flip within 240 of 1,000 steps and so score higher than four that run (session 26);
   # only the length tells.
@@ -233,6 +293,9 @@ def test_a_task_sweeps_table_gives_the_episode_length_beside_the_score(tmp_path)
     (["render", "anyrun", "--steps", "0"], "--steps 0: give at least 1 env step"),
     (["render", "anyrun", "--out", "x.gif"], "blx render writes MP4 video; give a path ending"),
     (["render", "anyrun", "--skills", "0,x"], "expected comma-separated skill numbers"),
+    (["eval", "anyrun", "--key-seeds", "0,x"], "--key-seeds '0,x': give distinct ints in 0..2**31"),
+    (["eval", "anyrun", "--key-seeds", "1,1"], "--key-seeds '1,1': give distinct ints"),
+    (["eval", "anyrun", "--key-seeds", "-1"], "--key-seeds '-1': give distinct ints"),
 ])
 def test_bad_input_is_one_line_and_exit_status_2(argv, message, capsys):
   assert cli.main(argv) == 2
