@@ -425,8 +425,9 @@ def test_the_wall_time_table_names_the_devices_each_run_trained_on_once_any_reco
   resumed = runs.Segment("2026-11-26T00:41:20Z", 37.4e6, 46.7e6, "H200", "gpu", 1, {})
   assert ablations.ran_on([resumed]) == "not recorded to 37.4 M steps, then H200"
   later = runs.Segment("2026-11-26T00:50:00Z", 50e6, 62.3e6, "H200", "gpu", 1, {})
-  assert ablations.ran_on([resumed, later]) == ("not recorded to 37.4 M steps, then H200, then "
-                                                "not recorded from 46.7 M to 50.0 M steps, then H200")
+  assert ablations.ran_on([resumed, later]) == (
+      "not recorded to 37.4 M steps, then H200, then not recorded from 46.7 M to 50.0 M steps, "
+      "then H200")
   study = ablations.STUDIES["step_diayn"]
   spec = ablations.spec(study, "halfcheetah", 2, steps=2000, config={"num_evals": 2})
   names = [name for name, _ in sweep.expand(spec)]
