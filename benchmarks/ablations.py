@@ -691,7 +691,7 @@ def main():
       sweep.run_sweep(sweep_spec, directory, select=select, eval_metrics=True)
     except KeyboardInterrupt:
       print(f"[ablations] {sweep.INTERRUPTED}", file=sys.stderr)
-      raise SystemExit(130)
+      raise SystemExit(cli.INTERRUPTED_STATUS)
   print(report(args.study, study, directory, sweep_spec, references))
 
 

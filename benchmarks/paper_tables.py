@@ -289,7 +289,7 @@ def main():
       sweep.run_sweep(spec, out, select=select, eval_metrics=args.eval_metrics)
     except KeyboardInterrupt:
       print(f"[paper_tables] {sweep.INTERRUPTED}", file=sys.stderr)
-      raise SystemExit(130)
+      raise SystemExit(cli.INTERRUPTED_STATUS)
     print(open(os.path.join(out, "summary.md")).read())
     print(compare(out))
 

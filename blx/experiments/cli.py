@@ -17,9 +17,10 @@ import os
 import sys
 import time
 
-__all__ = ["main"]
+__all__ = ["main", "run_main", "INTERRUPTED_STATUS"]
 
 DEFAULT_ENV, DEFAULT_OBJECTIVE = "point", "diayn"
+INTERRUPTED_STATUS = 130  # a shell's status for a program ended by Ctrl-C (128 + SIGINT)
 ENVIRONMENT = """environment variables:
   BLX_COMPILATION_CACHE  where compiled programs are kept between runs (default
                          ~/.cache/blx/jax); "off" turns the cache off
@@ -207,7 +208,7 @@ def cmd_train(args) -> int:
                          eval_metrics=args.eval_metrics)
   except KeyboardInterrupt:
     print(f"[blx] interrupted: continue with  blx train --resume {out}", file=sys.stderr)
-    return 130
+    return INTERRUPTED_STATUS
   _print_summary(run.meta["eval"]["summary"])
   print(f"[blx] run directory: {out} (config.json, metrics.csv, eval.json, checkpoint/, "
         + ", ".join(os.path.relpath(p, out) for p in run.meta["plots"]) + ")", file=sys.stderr)
@@ -222,22 +223,20 @@ def _print_summary(summary: dict) -> None:
 
 def cmd_eval(args) -> int:
   from blx.experiments import runs
-  if args.key_seeds is not None:
-    key_seeds = _key_seeds(args.key_seeds)  # checked before the run is loaded and compiled
+  # the keys are checked before the run is loaded and compiled
+  key_seeds = None if args.key_seeds is None else _key_seeds(args.key_seeds)
   run = runs.load_run(args.dir)
-  if args.key_seeds is None:
+  if key_seeds is None:
     result = runs.write_eval(run)
-    if args.json:
-      print(json.dumps(result, indent=2))
-    else:
-      print(f"{run.spec.objective} on {run.spec.env}, seeds {list(run.spec.seeds)}")
-      _print_summary(result["summary"])
-    return 0
-  result = across_keys(key_seeds, runs.evaluate_run_keys(run, key_seeds))
-  print(f"[blx] evaluated with evaluation keys {key_seeds}; eval.json (key 0) is left as it was",
-        file=sys.stderr)
+  else:
+    result = across_keys(key_seeds, runs.evaluate_run_keys(run, key_seeds))
+    print(f"[blx] evaluated with evaluation keys {key_seeds}; eval.json (key 0) is left as it "
+          "was", file=sys.stderr)
   if args.json:
     print(json.dumps(result, indent=2))
+  elif key_seeds is None:
+    print(f"{run.spec.objective} on {run.spec.env}, seeds {list(run.spec.seeds)}")
+    _print_summary(result["summary"])
   else:
     print(f"{run.spec.objective} on {run.spec.env}, seeds {list(run.spec.seeds)}: the mean over "
           f"seeds per evaluation key {key_seeds}; the std of that mean across keys; the mean over "
@@ -362,7 +361,7 @@ def cmd_sweep(args) -> int:
     rows = sweep.run_sweep(spec, out, progress=_Progress(), eval_metrics=args.eval_metrics)
   except KeyboardInterrupt:
     print(f"[blx] {sweep.INTERRUPTED}", file=sys.stderr)
-    return 130
+    return INTERRUPTED_STATUS
   with open(os.path.join(out, "summary.md")) as f:
     print(f.read())
   print(f"[blx] {len(rows)} runs; tables in {out}/summary.{{md,csv,tex}}", file=sys.stderr)
@@ -480,9 +479,6 @@ def main(argv=None) -> int:
     print(f"blx {args.command}: error: {message} (BLX_DEBUG=1 shows the traceback)",
           file=sys.stderr)
     return 2
-
-
-INTERRUPTED_STATUS = 130  # a shell's status for a program ended by Ctrl-C (128 + SIGINT)
 
 
 def run_main(main_fn=None) -> None:
