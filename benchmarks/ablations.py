@@ -453,6 +453,15 @@ class Reference:
   rows: list[dict]            # its metrics.csv: the evaluations during training
   final: dict | None = None   # its eval.json (the paper's protocol after training), if it has one
   segments: tuple = ()        # where it trained (``runs.read_provenance``), if recorded
+  objective: str | None = None  # its objective (config.json's), if known: it faces only those arms
+
+
+def facing(reference: Reference, objectives: dict[str, str]) -> list[str]:
+  """The arms (keys of ``objectives``, ``{arm: objective}``) that ``reference`` is compared with:
+  those of its own objective where it names one that an arm has (the AIRL row against the AIRL
+  arms, not the GAIL ones); else every arm."""
+  own = [arm for arm, objective in objectives.items() if objective == reference.objective]
+  return own if reference.objective is not None and own else list(objectives)
 
 
 def read_reference(name: str, path: str, metrics: tuple[str, ...]) -> Reference:
@@ -475,7 +484,13 @@ def read_reference(name: str, path: str, metrics: tuple[str, ...]) -> Reference:
     with open(eval_path) as f:
       final = final_with_mode_balance(json.load(f))
   segments = runs.read_provenance(os.path.dirname(csv_path)) if prefix == "" else []
-  return Reference(name, rows, final, tuple(segments))
+  objective = (final or {}).get("objective")
+  config_path = os.path.join(os.path.dirname(csv_path), f"{prefix}config.json")
+  if prefix is not None and os.path.isfile(config_path):
+    with open(config_path) as f:
+      objective = json.load(f).get("objective", objective)
+  return Reference(name, rows, final, tuple(segments),
+                   objective if isinstance(objective, str) else None)
 
 
 REFERENCE_STYLES = ("--", ":", "-.")  # one line style per reference, all dark grey
@@ -575,7 +590,7 @@ def report(study_name: str, study: Study, directory: str, sweep_spec: dict,
               "steps all of them reached:\n\n" + "\n".join(during(by_label, study.metrics)))
   # references that logged their wall time join the table after the arms (the target stays the
   # first arm's), named as such: they ran in another process, perhaps on another machine
-  timed = {f"{r.name} (reference)": (next(iter(by_label.values()))[0], r.rows)
+  timed = {f"{r.name} (reference)": (objectives[facing(r, objectives)[0]], r.rows)
            for r in references if r.rows and _timed(r.rows)}
   # the devices column, once any of them recorded where it ran
   ran = {**{labels[n]: devices[n] for n in curves},
@@ -590,20 +605,25 @@ def report(study_name: str, study: Study, directory: str, sweep_spec: dict,
   finished = [float(r["env_steps"]) for n in arms for r in curves[n] if r.get("env_steps")]
   trained = max(finished) if finished else None
   for reference in references:
-    rows = against(by_arm, reference.name, reference.rows, study.metrics)
-    table += (f"\n\nEach arm's last evaluation during training against {reference.name} at the "
+    faced = facing(reference, objectives)
+    whose = ("Each arm's" if len(faced) == len(curves)
+             else f"Each {reference.objective} arm's")  # a reference of one objective of several
+    rows = against({labels[n]: curves[n] for n in faced}, reference.name, reference.rows,
+                   study.metrics)
+    table += (f"\n\n{whose} last evaluation during training against {reference.name} at the "
               "same env steps:\n\n" + "\n".join(rows))
-    if reference.final is None or trained is None:
+    finals = {labels[n]: arm for n, arm in arms.items() if n in faced}
+    if reference.final is None or not finals:
       continue
     # a reference may have trained another budget (e.g. the full row of a shorter study): say so
     ended = max((float(r["env_steps"]) for r in reference.rows if r.get("env_steps")), default=0.0)
-    budgets = (f"; the reference's at {ended / 1e6:.2f} M env steps, the arms' at "
-               f"{trained / 1e6:.2f} M"
-               if abs(ended - trained) > 0.01 * trained else "")
-    final = {reference.name: reference.final, **labelled}
-    table += (f"\n\nThe final evaluations (eval.json), first {reference.name}'s (arms of "
-              f"another objective are tested against their own first arm{budgets}):\n\n"
-              + "\n".join(compare(final, study.metrics)))
+    notes = [f"the reference's at {ended / 1e6:.2f} M env steps, the arms' at {trained / 1e6:.2f} M"
+             ] if abs(ended - trained) > 0.01 * trained else []
+    if {arm.get("objective") for arm in finals.values()} - {reference.final.get("objective")}:
+      notes.insert(0, "arms of another objective are tested against their own first arm")
+    table += (f"\n\nThe final evaluations (eval.json), first {reference.name}'s"
+              + (f" ({'; '.join(notes)})" if notes else "") + ":\n\n"
+              + "\n".join(compare({reference.name: reference.final, **finals}, study.metrics)))
   with open(os.path.join(directory, "ablation.md"), "w") as f:
     f.write(f"# {study_name}\n\n{study.claim_line[0].upper()}{study.claim_line[1:]}.\n\n"
             f"{budget_line(study, sweep_spec, trained)}\n\n{table}\n")

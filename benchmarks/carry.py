@@ -11,6 +11,8 @@ has 30 minutes of device time, and a row of #15 outlives both.
     python benchmarks/carry.py parked
     python benchmarks/carry.py unpark NAME --into DIR
     python benchmarks/carry.py forget NAME
+    python benchmarks/carry.py aside
+    python benchmarks/carry.py back
 
 ``pack`` writes the directory tree ``DIR`` (one run, or a sweep's ``--out`` with its points) as one
 tar stream cut into ``NAME.tar.part_000``, ``_001``, ... of at most ``--part-mb`` MB each (default
@@ -44,6 +46,16 @@ repository with staged changes (they would go into its commit). ``unpark NAME --
 the parts back from the history, checking every one against its recorded SHA-256, ready to carry;
 ``parked`` lists what is parked, and ``forget NAME`` drops a finished pack from the ledger (its
 parts stay in the history; commit the ledger with the run's results).
+
+The working tree itself is most of a call's 64 MiB: the committed results (``benchmarks/paper``,
+``benchmarks/multiagent``: figures, metrics and finished checkpoints, about 28 MiB) travel with
+every call, though nothing on the device reads them. With them and the wheels (24 MiB) no pack
+(28 MiB) fits. ``aside`` moves those folders (``ASIDE``) out of the tree, into ``.git/blx-aside``
+(which does not travel), for the calls; ``back`` returns them. A first call then carries the wheels
+and a pack (about 53 MiB), a later one two packs. Nothing is lost either way: ``aside`` refuses where
+``.git/blx-aside`` holds them already, ``back`` where the tree holds them again (say, after a
+checkout), and both leave the other side as it was. While they are aside, git sees them deleted:
+commit nothing with ``-a`` until ``back``.
 """
 
 from __future__ import annotations
@@ -507,6 +519,47 @@ def forget(name: str, *, repo: str = ".") -> dict:
   return entry
 
 
+ASIDE = ("benchmarks/paper", "benchmarks/multiagent")  # committed results no device call reads
+
+
+def _aside_dir(root: str) -> str:
+  return os.path.join(root, _git(root, "rev-parse", "--git-dir"), "blx-aside")
+
+
+def aside(*, repo: str = ".") -> list[str]:
+  """Moves ``ASIDE``'s folders out of ``repo``'s working tree into ``.git/blx-aside`` (see the
+  module's docstring); returns those moved. Refuses, moving nothing, where ``.git/blx-aside``
+  holds any of them already (an earlier ``aside`` not brought ``back``)."""
+  root = _root(repo)
+  store = _aside_dir(root)
+  held = [rel for rel in ASIDE if os.path.lexists(os.path.join(store, rel))]
+  if held:
+    raise CarryError(f"aside: {os.path.join(store, held[0])} exists already (set aside before and "
+                     "not brought back); run `carry.py back` first. Nothing was moved")
+  moved = [rel for rel in ASIDE if os.path.lexists(os.path.join(root, rel))]
+  for rel in moved:
+    os.makedirs(os.path.dirname(os.path.join(store, rel)), exist_ok=True)
+    os.rename(os.path.join(root, rel), os.path.join(store, rel))
+  return moved
+
+
+def back(*, repo: str = ".") -> list[str]:
+  """Returns what ``aside`` moved into ``.git/blx-aside`` to ``repo``'s working tree; returns those
+  moved. Refuses, moving nothing, where the tree holds any of them again."""
+  root = _root(repo)
+  store = _aside_dir(root)
+  held = [rel for rel in ASIDE if os.path.lexists(os.path.join(store, rel))]
+  again = [rel for rel in held if os.path.lexists(os.path.join(root, rel))]
+  if again:
+    raise CarryError(f"back: {os.path.join(root, again[0])} exists in the tree again (a checkout "
+                     f"since `aside`?), beside {os.path.join(store, again[0])}: compare them and "
+                     "remove one. Nothing was moved")
+  for rel in held:
+    os.rename(os.path.join(store, rel), os.path.join(root, rel))
+  shutil.rmtree(store, ignore_errors=True)
+  return held
+
+
 def main(argv: list[str] | None = None) -> None:
   parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
   sub = parser.add_subparsers(dest="command", required=True)
@@ -544,6 +597,9 @@ def main(argv: list[str] | None = None) -> None:
   g = sub.add_parser("forget", help="drop a parked pack from the ledger (its run is done)")
   g.add_argument("name")
   g.add_argument("--repo", default=".")
+  sub.add_parser("aside", help="move the committed results out of the tree for device calls"
+                 ).add_argument("--repo", default=".")
+  sub.add_parser("back", help="return what `aside` moved").add_argument("--repo", default=".")
   args = parser.parse_args(argv)
   try:
     if args.command == "pack":
@@ -571,6 +627,13 @@ def main(argv: list[str] | None = None) -> None:
             + (f"fits the {args.call_mib:g} MiB a call carries, {margin:.1f} MiB to spare"
                if fit.fits else f"over the {args.call_mib:g} MiB a call carries by {-margin:.1f} "
                "MiB"))
+      root = _root(args.repo)
+      spare = sum(_size(os.path.join(root, rel)) for rel in ASIDE
+                  if os.path.lexists(os.path.join(root, rel)))
+      if not fit.fits and spare:
+        left = (fit.total - spare) / MIB
+        print(f"with `carry.py aside` ({', '.join(ASIDE)} out of the tree, {spare / MIB:.1f} MiB) "
+              f"{left:.1f} MiB: " + ("fits" if left * MIB <= fit.limit else "still over"))
       if not fit.fits:
         parser.exit(1)
     elif args.command == "park":
@@ -590,6 +653,15 @@ def main(argv: list[str] | None = None) -> None:
       paths = unpark(args.name, args.into, repo=args.repo)
       print(f"unparked {_parts(len(paths))} into {args.into}: {os.path.basename(paths[0])} .. "
             f"{os.path.basename(paths[-1])}")
+    elif args.command == "aside":
+      moved = aside(repo=args.repo)
+      fit = fits([], repo=args.repo)
+      print(f"set aside in .git/blx-aside: {', '.join(moved) or 'nothing (none in the tree)'}; "
+            f"the working tree travels as {fit.tree / MIB:.1f} MiB. Git sees them deleted until "
+            "`carry.py back`: commit nothing with -a before")
+    elif args.command == "back":
+      moved = back(repo=args.repo)
+      print(f"brought back: {', '.join(moved)}" if moved else "nothing was set aside")
     else:
       entry = forget(args.name, repo=args.repo)
       print(f"forgot {args.name} (commit {entry['commit'][:10]} keeps its parts); commit "

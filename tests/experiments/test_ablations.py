@@ -343,10 +343,10 @@ def test_report_draws_the_reference_and_compares_the_arms_with_it(tmp_path):
   final = _arm("diayn", [0.2, 0.3, 0.4])
   table = ablations.report("step_diayn", study, str(tmp_path), spec,
                            [ablations.Reference("the row", reference, final)])
-  assert "first arm; the reference's at 0.01 M env steps, the arms' at 0.00 M):" in table
+  assert "first the row's (the reference's at 0.01 M env steps, the arms' at 0.00 M):" in table
   same = ablations.report("step_diayn", study, str(tmp_path), spec, [ablations.Reference(
       "the row", [r for r in reference if r["env_steps"] <= 2000], final)])
-  assert "own first arm):" in same and "reference's at" not in same
+  assert "first the row's:" in same and "reference's at" not in same
   from scipy import stats
   want = stats.ttest_ind([1.0, 1.2], [0.2, 0.3, 0.4], equal_var=False)
   tail = table.split("The final evaluations")[1]
@@ -620,3 +620,63 @@ def test_runs_from_before_mode_balance_get_it_from_their_modes_shares(tmp_path):
   logged = [{"eval/mode_share/0": "0.5", "eval/mode_share/1": "0.5", "eval/mode_balance": "0.7"}]
   assert ablations.with_mode_balance(logged)[0]["eval/mode_balance"] == "0.7"
   assert ablations.with_mode_balance([{"eval/mi": "1.0"}]) == [{"eval/mi": "1.0"}]  # no modes
+
+
+def test_a_reference_of_one_objective_faces_only_the_arms_of_that_objective(tmp_path):
+  # The gp study on Humanoid: the AIRL and GAIL arms at weight 1, each against its own objective's
+  # paper row (weight 0), committed under a prefix with its config.json naming the objective.
+  study = ablations.STUDIES["gp"]
+  spec = ablations.spec(study, "humanoid", 2, steps=2000, config={"num_evals": 2})
+  key = "eval/energy_distance"
+  names = {s.objective: n for n, s in sweep.expand(spec) if study.value(s) == 1.0}
+  for objective, value in (("airl", 2.0), ("gail", 1.0)):
+    (tmp_path / names[objective]).mkdir()
+    with open(tmp_path / names[objective] / "metrics.csv", "w", newline="") as f:
+      w = csv.DictWriter(f, ["seed", "env_steps", "time", key])
+      w.writeheader()
+      w.writerows({"seed": s, "env_steps": 2000, "time": 90, key: value + 0.1 * s} for s in (0, 1))
+    (tmp_path / names[objective] / "eval.json").write_text(json.dumps(
+        {"objective": objective, "per_seed": {key: [value, value + 0.1]}}))
+  rows = tmp_path / "rows"
+  rows.mkdir()
+  for objective, value in (("airl", 3.0), ("gail", 5.0)):
+    with open(rows / f"{objective}_metrics.csv", "w", newline="") as f:
+      w = csv.DictWriter(f, ["seed", "env_steps", "time", key])
+      w.writeheader()
+      w.writerows({"seed": s, "env_steps": step, "time": step / 10,
+                   key: value - step / 1000 + 0.05 * s}
+                  for s in (0, 1) for step in (1000, 2000, 3000))
+    (rows / f"{objective}_config.json").write_text(json.dumps({"objective": objective}))
+    (rows / f"{objective}_eval.json").write_text(json.dumps(
+        {"objective": objective, "per_seed": {key: [value, value + 0.2]}}))
+  refs = [ablations.read_reference(f"{o.upper()} row", str(rows / f"{o}_metrics.csv"), (key,))
+          for o in ("airl", "gail")]
+  assert [r.objective for r in refs] == ["airl", "gail"]
+  anyone = ablations.Reference("no objective", refs[0].rows)
+  table = ablations.report("gp", study, str(tmp_path), spec, refs + [anyone])
+  airl, gail = "airl, penalty weight 1", "gail, penalty weight 1"
+  assert airl in table and gail in table
+  against_airl = table.split("against AIRL row at the same env steps")[1].split("\n\n")[1]
+  assert "Each airl arm's last evaluation" in table
+  assert airl in against_airl and gail not in against_airl
+  against_gail = table.split("against GAIL row at the same env steps")[1].split("\n\n")[1]
+  assert gail in against_gail and airl not in against_gail
+  assert f"| {gail} | {key} | 0.00 M | 1.050 ± 0.050 (2) | 3.025 ± 0.025 (2) |" in against_gail
+  # a reference that names no objective faces every arm, as before
+  against_any = table.split("against no objective at the same env steps")[1].split("\n\n")[1]
+  assert airl in against_any and gail in against_any
+  # the final evaluations: each row with its own objective's arm only, tested against the row
+  final_airl = table.split("first AIRL row's")[1].split("\n\n")[1]
+  assert airl in final_airl and gail not in final_airl
+  from scipy import stats
+  t = stats.ttest_ind([2.0, 2.1], [3.0, 3.2], equal_var=False).statistic
+  assert final_airl.splitlines()[-1].startswith(f"| {airl} | {key} | 2.050 ± 0.050 (2) | {t:+.2f} |")
+  final_gail = table.split("first GAIL row's")[1].split("\n\n")[1]
+  assert gail in final_gail and airl not in final_gail
+  assert "arms of another objective" not in table
+  # in the wall-time table each timed row chases its own objective's first arm's last mean: the
+  # AIRL row reaches the AIRL arm's 2.05 at 1,000 steps (100 s); the GAIL row (at best 2.025)
+  # never reaches the GAIL arm's 1.05
+  wall = table.split("Wall time")[1].split("\n\nEach")[0]
+  assert f"| AIRL row (reference) | {key} | 2.050 | 0.00 M | 100 s |" in wall
+  assert f"| GAIL row (reference) | {key} | 1.050 | not reached |" in wall

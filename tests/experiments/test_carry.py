@@ -269,6 +269,49 @@ def test_fits_counts_the_tree_and_the_carried_paths_against_the_calls_limit(tmp_
     carry.fits([str(tmp_path)], repo=str(repo))
 
 
+def test_aside_takes_the_committed_results_out_of_what_travels_and_back_brings_them_whole(
+    tmp_path, capsys):
+  repo = _repo(tmp_path / "repo")
+  for rel, size in (("benchmarks/paper/row/metrics.csv", 4_000),
+                    ("benchmarks/multiagent/sumo/checkpoint.npz", 6_000)):
+    os.makedirs(repo / os.path.dirname(rel), exist_ok=True)
+    (repo / rel).write_bytes(b"r" * size)
+  (repo / "benchmarks" / "ablations.py").write_bytes(b"a" * 500)  # code: it stays and travels
+  _git(repo, "add", ".")
+  _git(repo, "commit", "-q", "-m", "results")
+  (repo / "benchmarks" / "paper" / "row" / "notes.md").write_bytes(b"n" * 100)  # uncommitted
+  os.makedirs(repo / "runs")
+  (repo / "runs" / "pack").write_bytes(b"p" * 5_000)
+  limit = (3_000 + 500 + 5_000 + 1_000) / carry.MIB   # the code, the pack, a margin
+  with pytest.raises(SystemExit) as e:   # with the results the pack does not fit; aside would
+    carry.main(["fits", str(repo / "runs" / "pack"), "--repo", str(repo), "--call-mib",
+                str(limit)])
+  assert e.value.code == 1
+  assert "with `carry.py aside` (benchmarks/paper, benchmarks/multiagent" in capsys.readouterr().out
+  assert carry.aside(repo=str(repo)) == ["benchmarks/paper", "benchmarks/multiagent"]
+  assert not (repo / "benchmarks" / "paper").exists()
+  assert (repo / "benchmarks" / "ablations.py").exists()
+  fit = carry.fits([str(repo / "runs" / "pack")], repo=str(repo), call_mib=limit)
+  assert fit.tree == 3_000 + 500 + len("runs/\n") and fit.fits
+  with pytest.raises(carry.CarryError, match="set aside before and not brought back"):
+    carry.aside(repo=str(repo))
+  # a checkout brings one back while it is aside: back refuses and moves nothing
+  _git(repo, "checkout", "--", "benchmarks/paper")
+  with pytest.raises(carry.CarryError, match="exists in the tree again"):
+    carry.back(repo=str(repo))
+  assert not (repo / "benchmarks" / "multiagent").exists()
+  shutil.rmtree(repo / "benchmarks" / "paper")
+  assert carry.back(repo=str(repo)) == ["benchmarks/paper", "benchmarks/multiagent"]
+  assert _git(repo, "status", "--porcelain") == "?? benchmarks/paper/row/notes.md"
+  assert (repo / "benchmarks" / "paper" / "row" / "notes.md").read_bytes() == b"n" * 100
+  carry.main(["back", "--repo", str(repo)])
+  assert "nothing was set aside" in capsys.readouterr().out
+  carry.main(["aside", "--repo", str(repo)])
+  assert "commit nothing with -a" in capsys.readouterr().out
+  carry.main(["back", "--repo", str(repo)])
+  assert "brought back: benchmarks/paper, benchmarks/multiagent" in capsys.readouterr().out
+
+
 def test_a_parked_pack_leaves_the_tree_and_comes_back_whole_in_a_fresh_clone(tmp_path, capsys):
   repo = _repo(tmp_path / "repo")
   parts = carry.pack(_tree(tmp_path), str(tmp_path / "out"), "hc", part_mb=PART_MB)
