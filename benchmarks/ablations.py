@@ -5,6 +5,7 @@ row, trained with the row's protocol, compared by curves and by a Welch test aga
                                          [--out sweeps/ablations] [--steps N] [--arm VALUE]
                                          [--objective NAME] [--config JSON]
                                          [--reference NAME=PATH ...]
+                                         [--eval-protocol quick|final]
     python benchmarks/ablations.py STUDY --report    # only the curves and table of what has run
 
 Studies (``--list`` prints them):
@@ -37,9 +38,10 @@ Studies (``--list`` prints them):
 
 Each arm is a point of one ``blx sweep`` (``benchmarks/paper_tables.py`` gives the row's settings),
 trained with ``--eval-metrics`` so that MI, H(s) or the energy distance is logged at every
-evaluation. Points already evaluated are reused, so ``--arm`` (and, in a study of several
-objectives, ``--objective``) lets one process per GPU train one arm and a last call
-(``--report``) draws them together. Writes ``OUT/STUDY_ENV/``: the sweep's run
+evaluation (4 episodes, or the final evaluation's 10 with ``--eval-protocol final``: such an
+arm's label says so, since its curves are not comparable with a quick one's). Points already
+evaluated are reused, so ``--arm`` (and, in a study of several objectives, ``--objective``) lets
+one process per GPU train one arm and a last call (``--report``) draws them together. Writes ``OUT/STUDY_ENV/``: the sweep's run
 directories, ``curves.png`` (each metric against env steps, mean and std over seeds per arm) and
 ``ablation.md`` (each arm's final metrics, mean +- std over seeds, Welch's t-test against the first
 arm). ``--reference NAME=PATH`` adds another run trained with ``--eval-metrics`` (its directory or
@@ -533,6 +535,8 @@ def report(study_name: str, study: Study, directory: str, sweep_spec: dict,
     objectives[name] = run_spec.objective
     styles[name] = study.style(run_spec)
     devices[name] = runs.read_provenance(path)
+    if any(s.eval_protocol == "final" for s in devices[name]):
+      labels[name] += " (curves: the final protocol)"  # 10 episodes, not 4: another estimator
     with open(os.path.join(path, "metrics.csv")) as f:
       curves[name] = with_mode_balance(list(csv.DictReader(f)))
     if os.path.exists(os.path.join(path, "eval.json")):
@@ -651,6 +655,7 @@ def main():
                            "last evaluation at the same env steps, e.g. a finished row; up to "
                            f"{len(REFERENCE_STYLES)}, each its own --reference")
   parser.add_argument("--out", default="sweeps/ablations")
+  cli.add_eval_protocol_flag(parser)  # the arms always log the metrics during training
   parser.add_argument("--report", action="store_true", help="only draw and tabulate")
   args = parser.parse_args()
   if args.list or args.study is None:
@@ -708,7 +713,8 @@ def main():
         lambda name, run_spec: ((only is None or study.value(run_spec) in only)
                                 and run_spec.objective in objectives))
     try:
-      sweep.run_sweep(sweep_spec, directory, select=select, eval_metrics=True)
+      sweep.run_sweep(sweep_spec, directory, select=select, eval_metrics=True,
+                      eval_protocol=args.eval_protocol)
     except KeyboardInterrupt:
       print(f"[ablations] {sweep.INTERRUPTED}", file=sys.stderr)
       raise SystemExit(cli.INTERRUPTED_STATUS)

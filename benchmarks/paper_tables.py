@@ -4,6 +4,7 @@
                                       [--only gcrl|mimax|dmin] [--objective diayn] [--collect]
                                       [--out sweeps/paper_ENV] [--env-edits JSON] [--config JSON]
                                       [--options JSON] [--steps N] [--eval-metrics]
+                                      [--eval-protocol quick|final]
     python benchmarks/paper_tables.py --compare DIR [DIR ...]   # every eval.json against the paper
 
 ``--objective`` trains only that algorithm's point (one process per GPU:
@@ -16,7 +17,8 @@ the paper's protocol. ``--first-seed N`` trains seeds N .. N + seeds - 1, so tha
 can be split over processes or device calls; ``--compare DIR1 DIR2`` then merges the ``eval.json``
 files found at the same path under each directory into one row (their seeds must not overlap).
 ``--eval-metrics`` also logs the paper's metrics at every evaluation during
-training (e.g. D-min's mode shares), at the cost of a quick evaluation each time.
+training (e.g. D-min's mode shares), at the cost of a quick evaluation each time (4 episodes;
+``--eval-protocol final``: the final evaluation's 10, ``runs.EVAL_PROTOCOLS``).
 
 MI-max: gcrl, diayn, cdiayn, diayn_full on the env's "vel" indices (Ant and Humanoid: xy velocity;
 HalfCheetah: x velocity), obs_scale 5, spectral norm on; D-min: gail, gail2, airl, mle to the
@@ -247,6 +249,7 @@ def main():
                            "only for a diagnosis)")
   parser.add_argument("--eval-metrics", action="store_true",
                       help="log the paper's metrics at every evaluation during training")
+  cli.add_eval_protocol_flag(parser)
   parser.add_argument("--compare", nargs="+", default=None, metavar="DIR",
                       help="only print the verdicts for the eval.json files under DIR; files at "
                            "the same path under several DIRs are one row's parts")
@@ -257,6 +260,9 @@ def main():
   known = [o for spec in specs(1).values() for o in spec["objective"]]
   if args.first_seed < 0:
     parser.error(f"--first-seed {args.first_seed}: must be >= 0")
+  if args.eval_protocol != "quick" and not args.eval_metrics:
+    parser.error(f"--eval-protocol {args.eval_protocol}: sets how the metrics logged during "
+                 "training are evaluated; add --eval-metrics")
   if args.objective and args.objective not in known:
     parser.error(f"--objective {args.objective!r}: valid ones are {known}")
   select = None
@@ -286,7 +292,8 @@ def main():
       continue
     out = os.path.join(args.out, family)
     try:
-      sweep.run_sweep(spec, out, select=select, eval_metrics=args.eval_metrics)
+      sweep.run_sweep(spec, out, select=select, eval_metrics=args.eval_metrics,
+                      eval_protocol=args.eval_protocol)
     except KeyboardInterrupt:
       print(f"[paper_tables] {sweep.INTERRUPTED}", file=sys.stderr)
       raise SystemExit(cli.INTERRUPTED_STATUS)

@@ -4,7 +4,7 @@ paper's MI (1.115) and GAIL on Ant the paper's energy distance (0.802), for seve
     python benchmarks/time_to_quality.py [--objectives diayn,gail] [--num-envs 2048,8192,16384,32768]
         [--seeds 4] [--first-seed 0] [--steps 60000000] [--budget-s 600] [--num-evals 40]
         [--config JSON] [--out DIR] [--env ant] [--threshold NAME=VALUE ...] [--quick-eval]
-        [--arm LABEL=JSON ...] [--compile-cache DIR|off]
+        [--arm LABEL=JSON ...] [--options JSON] [--compile-cache DIR|off]
 
 Every arm is one ``training.train`` with the paper's objective settings (those of
 ``paper_tables.py``: 8 DIAYN skills on the xy velocity, obs_scale 5, spectral norm; GAIL to the
@@ -14,7 +14,9 @@ steps per env step (session 9: with ``batch_size = num_envs // 2`` at 16,384 env
 learned), unless ``--config`` says otherwise. Each
 ``--arm LABEL=JSON`` adds one recipe (PPO settings over ``--config``), run at every num_envs, e.g.
 ``--arm 'instep={"staggered_starts": false}'`` (``PPOConfig`` staggers the starts above 2,048 envs
-by default); without ``--arm`` there is one. After each of ``--num-evals`` chunks the paper's
+by default); without ``--arm`` there is one. ``--options JSON`` sets objective options over the
+paper's for every arm (e.g. ``'{"gradient_penalty_weight": 1.0}'``, not the original's setting:
+``summary.md`` names them). After each of ``--num-evals`` chunks the paper's
 evaluator (sampled actions; ``--quick-eval``: 4 episodes, every 10th step) scores every seed.
 The clock starts before the env is built, so env compilation, XLA compilation and the evaluations
 all count, as a user's wall time would. An arm stops when the mean over seeds reaches the
@@ -53,11 +55,14 @@ class _Stop(Exception):
 
 
 def arm_spec(env: str, objective: str, num_envs: int, seeds: int, steps: int, num_evals: int,
-             config: dict, first_seed: int = 0) -> runs.RunSpec:
+             config: dict, first_seed: int = 0, options: dict | None = None) -> runs.RunSpec:
+  """The paper's objective settings (``options`` over them) and the env's PPO row with
+  ``num_envs`` and ``config`` over it."""
   family = next(spec for spec in paper_tables.specs(seeds).values()
                 if objective in spec["objective"])
   ppo = {"num_envs": num_envs, "num_timesteps": steps, "num_evals": num_evals, **config}
-  return runs.RunSpec(env=env, objective=objective, objective_options=dict(family["options"]),
+  return runs.RunSpec(env=env, objective=objective,
+                      objective_options={**family["options"], **(options or {})},
                       ppo=ppo, seeds=tuple(range(first_seed, first_seed + seeds)))
 
 
@@ -156,6 +161,9 @@ def main():
   parser.add_argument("--threshold", action="append", default=[], metavar="OBJECTIVE=VALUE",
                       help="another quality bar than the paper's (for a quick check only)")
   parser.add_argument("--quick-eval", action="store_true")
+  parser.add_argument("--options", default=None, metavar="JSON",
+                      help="objective options over the paper's for every arm, e.g. "
+                           "'{\"gradient_penalty_weight\": 1.0}' (not the original's setting)")
   parser.add_argument("--arm", action="append", default=[], metavar="LABEL=JSON",
                       help="a recipe run at every num_envs: PPO settings over --config, e.g. "
                       "'instep={\"staggered_starts\": false}' (repeatable)")
@@ -174,6 +182,13 @@ def main():
   out = args.out or os.environ.get("OUT") or os.path.join("benchmarks", "ttq")
   os.makedirs(out, exist_ok=True)
   config = json.loads(args.config) if args.config else {}
+  options = {}
+  if args.options:
+    try:
+      options = paper_tables.json_object(args.options, 'objective options (e.g. {"spectral_norm": '
+                                         'false})')
+    except ValueError as e:
+      parser.error(f"--options: {e}")
   quality = dict(QUALITY)
   for item in args.threshold:
     name, _, value = item.partition("=")
@@ -193,16 +208,23 @@ def main():
       parser.error(f"--arm {item!r}: the settings after '=' must be a JSON object, e.g. "
                    "'instep={\"staggered_starts\": false}'")
     arms.append((label, {**config, **settings}))
-  results = []
-  for name in args.objectives.split(","):
+  names = args.objectives.split(",")
+  for name in names:  # every objective and its options checked before the first arm's clock
     if name not in quality:
       parser.error(f"--objectives: {name!r} is not one of {sorted(quality)}")
+    if options:
+      try:
+        runs.build(arm_spec(args.env, name, 8, 1, 1, 1, {}, options=options))
+      except ValueError as e:
+        parser.error(f"--options for {name}: {e}")
+  results = []
+  for name in names:
     key, threshold, larger = quality[name]
     for n, (label, settings) in itertools.product(
         [int(x) for x in args.num_envs.split(",")], arms):
       spec = arm_spec(args.env, name, n, args.seeds, args.steps, args.num_evals, settings,
-                      args.first_seed)
-      result = {"env": args.env, "label": label,
+                      args.first_seed, options)
+      result = {"env": args.env, "label": label, "objective_options": spec.objective_options,
                 **run_arm(spec, key, threshold, larger, args.budget_s, args.quick_eval)}
       results.append(result)
       with open(os.path.join(out, f"{name}_{n}{'_' + label if label else ''}.json"), "w") as f:
@@ -213,7 +235,8 @@ def main():
       else f"seed {args.first_seed}"
   lines = [f"{args.env}, {seeds}, up to {args.steps:,} steps or "
            f"{args.budget_s:.0f} s per arm; jax {jax.__version__} on "
-           f"{jax.devices()[0].device_kind}; PPO overrides {config or 'none'}; compilation "
+           f"{jax.devices()[0].device_kind}; PPO overrides {config or 'none'}; objective options "
+           f"over the paper's {options or 'none'}; compilation "
            f"cache {cache or 'off'}; compiled in parallel: {parallel_compile_default()}",
            "",
            "| objective | num_envs | batch | recipe | time to quality (s) | env steps then | "

@@ -205,7 +205,7 @@ def cmd_train(args) -> int:
         file=sys.stderr)
   try:
     run = runs.train_run(spec, out, resume=resume, progress=_Progress(),
-                         eval_metrics=args.eval_metrics)
+                         eval_metrics=args.eval_metrics, eval_protocol=args.eval_protocol)
   except KeyboardInterrupt:
     print(f"[blx] interrupted: continue with  blx train --resume {out}", file=sys.stderr)
     return INTERRUPTED_STATUS
@@ -358,7 +358,8 @@ def cmd_sweep(args) -> int:
   out = args.out or spec.get("out") or os.path.join(
       "sweeps", spec.get("name") or os.path.splitext(os.path.basename(args.spec))[0])
   try:
-    rows = sweep.run_sweep(spec, out, progress=_Progress(), eval_metrics=args.eval_metrics)
+    rows = sweep.run_sweep(spec, out, progress=_Progress(), eval_metrics=args.eval_metrics,
+                           eval_protocol=args.eval_protocol)
   except KeyboardInterrupt:
     print(f"[blx] {sweep.INTERRUPTED}", file=sys.stderr)
     return INTERRUPTED_STATUS
@@ -422,6 +423,7 @@ def _parser() -> argparse.ArgumentParser:
                       "with it must agree with the run")
   p.add_argument("--eval-metrics", action="store_true",
                  help="log MI / LGR / energy distance at every evaluation (slower)")
+  add_eval_protocol_flag(p)
   p.set_defaults(fn=cmd_train)
 
   p = sub.add_parser("eval", help="the metrics of a trained run")
@@ -446,8 +448,16 @@ def _parser() -> argparse.ArgumentParser:
   p.add_argument("spec")
   p.add_argument("--out", default=None)
   p.add_argument("--eval-metrics", action="store_true")
+  add_eval_protocol_flag(p)
   p.set_defaults(fn=cmd_sweep)
   return parser
+
+
+def add_eval_protocol_flag(parser) -> None:
+  """``--eval-protocol``, as train, sweep and the benchmarks' studies take it."""
+  parser.add_argument("--eval-protocol", choices=("quick", "final"), default="quick",
+                      help="with --eval-metrics: the rollouts of the metrics logged during "
+                           "training, quick (4 episodes; the default) or final (eval.json's 10)")
 
 
 def _quiet_imports() -> None:

@@ -36,10 +36,15 @@ from blx.training import checkpoint
 __all__ = ["FORMAT_VERSION", "RunSpec", "Run", "RunError", "build", "load_run", "write_config",
            "write_metrics_csv", "default_obs_indices", "evaluator_for", "evaluate_run",
            "evaluate_run_keys", "summarise", "read_spec", "train_run", "write_eval", "Segment",
-           "this_machine", "read_provenance"]
+           "this_machine", "read_provenance", "EVAL_PROTOCOLS"]
 
 FORMAT_VERSION = 1
 PROVENANCE = "provenance.json"
+# The paper's metrics logged during training (``train_run(eval_metrics=True)``): "quick", fewer
+# rollouts than the final evaluation (4 episodes for D-min; 4 skills x 4 episodes and 4 goals for
+# MI-max), or "final", eval.json's own (10 of each). A policy that picks one of the target's modes
+# per episode reads worse on 4 episodes than on 10 (RESULTS, session 32).
+EVAL_PROTOCOLS = ("quick", "final")
 
 
 class RunError(ValueError):
@@ -74,6 +79,7 @@ class Segment:
   platform: str           # "gpu", "cpu" or "tpu"
   device_count: int       # the devices jax saw
   versions: dict          # python, jax, jaxlib, mujoco, mujoco-mjx and blx: version strings
+  eval_protocol: str | None = None  # the metrics logged during training (EVAL_PROTOCOLS), if any
 
 
 def this_machine(from_env_steps: float = 0.0) -> Segment:
@@ -320,6 +326,22 @@ def evaluator_for(env, objective, *, quick: bool = False):
   return metrics.evaluator_for(env, objective, quick=quick)
 
 
+def _check_eval_protocol(directory: str, eval_metrics: bool, eval_protocol: str,
+                         segments: list[Segment]) -> None:
+  """Refuses a protocol blx does not know, one asked without metrics to log, and a resume that
+  would log its curves with another protocol than the run's so far (one curve, two estimators)."""
+  if eval_protocol not in EVAL_PROTOCOLS:
+    raise RunError(f"eval_protocol {eval_protocol!r}: valid are {', '.join(EVAL_PROTOCOLS)}")
+  if eval_protocol != "quick" and not eval_metrics:
+    raise RunError(f"eval_protocol {eval_protocol!r} sets how the metrics logged during training "
+                   "are evaluated, and none are logged: add --eval-metrics (eval_metrics=True)")
+  logged = [s.eval_protocol for s in segments if s.eval_protocol is not None]
+  if eval_metrics and logged and logged[-1] != eval_protocol:
+    raise RunError(f"{directory!r} logged its metrics during training with the {logged[-1]!r} "
+                   f"protocol ({PROVENANCE}); resume it with --eval-protocol {logged[-1]}, so that "
+                   "one curve has one estimator, or train a new run")
+
+
 def evaluate_run(run: Run, *, key_seed: int = 0) -> dict[str, list[float]]:
   """The final metrics of every seed: MI-max -> MI, H(s), LGR, coverage; D-min -> energy
   distance; always the episode reward and score of deterministic episodes. ``key_seed`` seeds the
@@ -358,9 +380,13 @@ def summarise(values: dict[str, list[float]]) -> dict[str, dict[str, float]]:
 
 
 def train_run(spec: RunSpec, directory: str, *, resume: bool = False, progress=True,
-              eval_metrics: bool = False) -> Run:
+              eval_metrics: bool = False, eval_protocol: str = "quick") -> Run:
   """Trains ``spec`` into ``directory`` and completes it: config, checkpoint, metrics.csv, then
   ``eval.json`` and the plots. ``run.meta`` holds ``history``, ``eval`` and ``plots`` (paths).
+
+  ``eval_metrics`` also logs the paper's metrics (MI, energy distance, ...) at every evaluation
+  during training, with ``eval_protocol``'s rollouts (``EVAL_PROTOCOLS``: "quick", the default, or
+  "final", eval.json's), recorded in ``provenance.json``; a resumed run keeps its protocol.
 
   An existing run directory is only continued with ``resume=True``; it is never overwritten.
   """
@@ -379,17 +405,21 @@ def train_run(spec: RunSpec, directory: str, *, resume: bool = False, progress=T
     if (old.env, old.objective, list(old.seeds)) != (spec.env, spec.objective, list(spec.seeds)):
       raise RunError(f"{directory!r} holds a run of {old.objective} on {old.env} with seeds "
                      f"{list(old.seeds)}; resume it with the same settings")
-  else:  # a resumed run keeps its config.json untouched
+  segments = read_provenance(directory) if exists else []
+  _check_eval_protocol(directory, eval_metrics, eval_protocol, segments)
+  if not exists:  # a resumed run keeps its config.json untouched
     write_config(directory, spec, env)
-  evaluator = evaluator_for(env, objective, quick=True) if eval_metrics else None
+  evaluator = (evaluator_for(env, objective, quick=eval_protocol == "quick") if eval_metrics
+               else None)
   checkpoint_dir = os.path.join(directory, "checkpoint")
   # metrics.csv grows with every evaluation, so that a run stopped before its end (a killed
   # process, a lost machine) still shows its curves up to its last checkpoint.
   history = (list(checkpoint.read_meta(checkpoint_dir).get("history", []))
              if resume and checkpoint.exists(checkpoint_dir) else [])
   show = training.print_progress if progress is True else (progress or None)
-  segments = read_provenance(directory) if exists else []
-  segments.append(this_machine(float(history[-1]["env_steps"]) if history else 0.0))
+  segments.append(dataclasses.replace(
+      this_machine(float(history[-1]["env_steps"]) if history else 0.0),
+      eval_protocol=eval_protocol if eval_metrics else None))
   _write_provenance(directory, segments)
 
   def report(row: dict) -> None:

@@ -151,7 +151,8 @@ def _check_same_point(name: str, directory: str, run_spec: runs.RunSpec, desc: d
 
 
 def run_sweep(spec: dict, out: str, *, progress=True, eval_metrics: bool = False,
-              select: Callable[[str, runs.RunSpec], bool] | None = None) -> list[dict]:
+              select: Callable[[str, runs.RunSpec], bool] | None = None,
+              eval_protocol: str = "quick") -> list[dict]:
   """Trains and evaluates every grid point (reusing points already evaluated with the same
   definition; a point whose directory holds another definition is an error), then writes
   ``summary.md``, ``summary.csv`` and ``summary.tex`` in ``out``; returns the table rows.
@@ -159,7 +160,8 @@ def run_sweep(spec: dict, out: str, *, progress=True, eval_metrics: bool = False
   ``select(name, run_spec)``, if given, picks the points this call may train; the others enter
   the tables only if already evaluated (in ``out``). Several processes (one per GPU, say) can so
   share one sweep: each trains its own points, and a last call with ``select=lambda *_: False``
-  gathers them all.
+  gathers them all. ``eval_metrics`` and ``eval_protocol``: ``runs.train_run``'s, for every point
+  this call trains.
   """
   check_spec(spec)
   points = expand(spec)
@@ -184,7 +186,8 @@ def run_sweep(spec: dict, out: str, *, progress=True, eval_metrics: bool = False
         print(f"[blx sweep] {i + 1}/{len(points)}: {name}", flush=True)
       resume = os.path.exists(os.path.join(directory, "config.json"))
       result = runs.train_run(run_spec, directory, resume=resume, progress=progress,
-                              eval_metrics=eval_metrics).meta["eval"]
+                              eval_metrics=eval_metrics,
+                              eval_protocol=eval_protocol).meta["eval"]
     rows.append({"name": name, "env": run_spec.env, "objective": run_spec.objective,
                  "family": families[i].name, "columns": families[i].table,
                  "summary": result["summary"], "seeds": len(run_spec.seeds)})

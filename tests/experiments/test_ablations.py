@@ -450,6 +450,13 @@ def test_the_wall_time_table_names_the_devices_each_run_trained_on_once_any_reco
   first, second, old = [r for r in wall.splitlines() if r.startswith("| ") and "eval/mi" in r]
   assert first.endswith("| 90 s | H200, then H100 |")
   assert second.endswith("| 90 s | not recorded |") and old.endswith("| 30 s | not recorded |")
+  # an arm whose curves were logged with the final protocol (10 episodes) says so in its label
+  runs._write_provenance(str(tmp_path / names[1]), [
+      dataclasses.replace(segment("H200"), eval_protocol="final")])
+  table = ablations.report("step_diayn", study, str(tmp_path), spec)
+  labelled = [r for r in table.splitlines() if "(curves: the final protocol)" in r]
+  second_arm = study.label(*sweep.expand(spec)[1])
+  assert labelled and all(r.startswith(f"| {second_arm} (curves") for r in labelled)
 
 
 def test_an_arm_trained_for_another_budget_than_the_reports_is_labelled_with_its_own(tmp_path):
@@ -499,6 +506,16 @@ def test_bad_reference_or_config_is_refused_before_anything_trains(argv, message
     ablations.main()
   assert re.search(message, capsys.readouterr().err)
   assert not trained
+
+
+def test_the_eval_protocol_reaches_every_arm(monkeypatch, tmp_path):
+  trained = []
+  monkeypatch.setattr(sweep, "run_sweep", lambda *a, **k: trained.append(k))
+  monkeypatch.setattr(ablations, "report", lambda *a: "")
+  for given, protocol in (([], "quick"), (["--eval-protocol", "final"], "final")):
+    monkeypatch.setattr("sys.argv", ["ablations.py", "sn_diayn", "--out", str(tmp_path), *given])
+    ablations.main()
+    assert (trained[-1]["eval_metrics"], trained[-1]["eval_protocol"]) == (True, protocol)
 
 
 def test_a_reference_named_as_an_arm_is_refused_before_anything_trains(monkeypatch, capsys,

@@ -393,6 +393,55 @@ def test_a_run_stopped_early_keeps_its_metrics_and_its_resume_continues_them(tmp
   assert resumed.started >= stopped.started
 
 
+def test_the_eval_protocol_sets_the_rollouts_logged_during_training_and_a_run_keeps_it(
+    trained, tmp_path, monkeypatch, capsys):
+  import jax
+
+  from blx.experiments import runs
+  # The protocols' rollouts: DIAYN's quick evaluator runs 4 episodes for each of the 3 skills and
+  # of 4 goals (LGR's), eval.json's 10 for each skill and of 10 goals.
+  run = runs.load_run(trained)
+  one_seed = jax.tree.map(lambda x: x[0], run.params)
+  for quick, n in ((True, 4), (False, 10)):
+    evaluator = runs.evaluator_for(run.env, run.objective, quick=quick)
+    batch, _ = evaluator.episodes(run.policy, one_seed, jax.random.PRNGKey(0))
+    assert jax.tree.leaves(batch.state)[0].shape[0] == (3 + n) * n
+  # train_run logs the metrics with the protocol asked, and records it in provenance.json.
+  asked = []
+  real = runs.evaluator_for
+  monkeypatch.setattr(runs, "evaluator_for",
+                      lambda *a, quick=False: asked.append(quick) or real(*a, quick=quick))
+  spec = runs.RunSpec(env="point", objective="diayn", objective_options={"num_skills": 3},
+                      ppo={**TINY_CONFIG, "num_timesteps": 1600}, seeds=(0,),
+                      env_params={"episode_length": 20})
+  out = str(tmp_path / "final")
+
+  def killed(row):  # stopped after the first evaluation, which logged MI
+    assert "eval/mi" in row
+    raise KeyboardInterrupt
+
+  with pytest.raises(KeyboardInterrupt):
+    runs.train_run(spec, out, progress=killed, eval_metrics=True, eval_protocol="final")
+  assert asked == [False]
+  assert [s.eval_protocol for s in runs.read_provenance(out)] == ["final"]
+  # Resumed with the other protocol, it is refused before anything runs: one curve, one estimator.
+  with pytest.raises(runs.RunError, match="with the 'final' protocol.*--eval-protocol final"):
+    runs.train_run(spec, out, resume=True, eval_metrics=True, eval_protocol="quick")
+  assert len(runs.read_provenance(out)) == 1 and asked == [False]
+  # An unknown protocol, or one with no metrics to log, is named before a directory is made.
+  for protocol, metrics, message in (("slow", True, "'slow': valid are quick, final"),
+                                     ("final", False, "none are logged: add --eval-metrics")):
+    with pytest.raises(runs.RunError, match=message):
+      runs.train_run(spec, str(tmp_path / "new"), eval_metrics=metrics, eval_protocol=protocol)
+    assert not os.path.exists(tmp_path / "new")
+  assert cli.main(["train", "--out", str(tmp_path / "cli"), "--eval-protocol", "final",
+                   *TINY]) == 2
+  assert "none are logged: add --eval-metrics" in capsys.readouterr().err
+  with pytest.raises(SystemExit) as e:
+    cli.main(["train", "--eval-protocol", "slow", *TINY])
+  assert e.value.code == 2 and "invalid choice: 'slow'" in capsys.readouterr().err
+
+
 def test_provenance_is_empty_for_an_older_run_and_a_foreign_file_is_named(tmp_path):
   from blx.experiments import runs
   assert runs.read_provenance(str(tmp_path)) == []  # a run trained before blx recorded it

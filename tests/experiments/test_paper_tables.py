@@ -3,6 +3,7 @@ verdicts that compare blx with them."""
 
 import json
 import math
+import os
 import re
 
 import pytest
@@ -162,3 +163,26 @@ def test_an_interrupted_table_says_how_to_continue_and_exits_130(monkeypatch, ca
     paper_tables.main()
   assert stop.value.code == 130
   assert f"[paper_tables] {sweep.INTERRUPTED}" in capsys.readouterr().err
+
+
+def test_the_eval_protocol_reaches_the_sweep_and_is_refused_without_eval_metrics(
+    monkeypatch, capsys, tmp_path):
+  trained = []
+
+  def run_sweep(spec, out, **kwargs):
+    trained.append(kwargs)
+    os.makedirs(out, exist_ok=True)
+    open(os.path.join(out, "summary.md"), "w").close()
+
+  monkeypatch.setattr(sweep, "run_sweep", run_sweep)
+  monkeypatch.setattr(paper_tables, "compare", lambda *a: "")
+  argv = ["paper_tables.py", "--objective", "diayn", "--out", str(tmp_path),
+          "--eval-protocol", "final"]
+  monkeypatch.setattr("sys.argv", argv)
+  with pytest.raises(SystemExit):
+    paper_tables.main()
+  assert "--eval-protocol final: sets how the metrics logged" in capsys.readouterr().err
+  assert not trained
+  monkeypatch.setattr("sys.argv", argv + ["--eval-metrics"])
+  paper_tables.main()
+  assert [(k["eval_metrics"], k["eval_protocol"]) for k in trained] == [(True, "final")]

@@ -1,5 +1,7 @@
 """benchmarks/time_to_quality.py: which seeds an arm trains; a plot that names each arm's recipe."""
 
+import pytest
+
 from tests.experiments import load_benchmark
 
 ttq = load_benchmark("time_to_quality")  # it imports paper_tables from beside it
@@ -31,3 +33,23 @@ def test_the_plot_names_each_arms_envs_batch_and_episode_starts(tmp_path):
   assert labels == ["16,384 envs, batch 1,024 x 32, staggered starts",
                     "2,048 envs, batch 1,024, starts in step", "4,096 envs, batch 1,024, lr2"]
   assert path.stat().st_size > 10_000
+
+
+def test_objective_options_go_over_the_papers_and_a_bad_one_is_named_before_any_arm(
+    monkeypatch, capsys, tmp_path):
+  spec = ttq.arm_spec("ant", "gail", 2048, 1, 1, 1, {}, options={"gradient_penalty_weight": 1.0})
+  assert spec.objective_options["gradient_penalty_weight"] == 1.0
+  assert spec.objective_options["obs_scale"] == 8.0  # the paper's GAIL settings stay
+  trained = []
+  monkeypatch.setattr(ttq, "run_arm", lambda *a: trained.append(a))
+  for options, message in (('{"gradient_penalty_weihgt": 1}',
+                            "--options for gail: objective 'gail': unknown option(s) "
+                            "['gradient_penalty_weihgt']; valid options are"),
+                           ("[1]", "--options: a JSON object of objective options"),
+                           ("{gp: 1}", "--options: not JSON")):
+    monkeypatch.setattr("sys.argv", ["time_to_quality.py", "--objectives", "gail", "--options",
+                                     options, "--out", str(tmp_path)])
+    with pytest.raises(SystemExit):
+      ttq.main()
+    assert message in capsys.readouterr().err
+  assert not trained
