@@ -41,16 +41,17 @@ trained with ``--eval-metrics`` so that MI, H(s) or the energy distance is logge
 evaluation (4 episodes, or the final evaluation's 10 with ``--eval-protocol final``: such an
 arm's label says so, since its curves are not comparable with a quick one's). Points already
 evaluated are reused, so ``--arm`` (and, in a study of several objectives, ``--objective``) lets
-one process per GPU train one arm and a last call (``--report``) draws them together. Writes ``OUT/STUDY_ENV/``: the sweep's run
-directories, ``curves.png`` (each metric against env steps, mean and std over seeds per arm) and
-``ablation.md`` (each arm's final metrics, mean +- std over seeds, Welch's t-test against the first
-arm). ``--reference NAME=PATH`` adds another run trained with ``--eval-metrics`` (its directory or
-metrics.csv; e.g. a finished row trained with another setting; up to three, each its own
-``--reference``): its curve is drawn over the arms' span, and each arm's last evaluation is tested
-against the reference's at the same env steps. So an arm run for a fraction of a row's steps is
-compared with the row where the row was. Where the reference has its eval.json, each arm's final
-evaluation is also tested against it: so a study whose row has run before (``--arm`` the other
-values) is compared with that row.
+one process per GPU train one arm and a last call (``--report``) draws them together. Writes
+``OUT/STUDY_ENV/``: the sweep's run directories, ``curves.png`` (each metric against env steps,
+mean and std over seeds per arm) and ``ablation.md`` (each arm's final metrics, mean +- std over
+seeds, Welch's t-test against the first arm). ``--reference NAME=PATH`` adds another run trained
+with ``--eval-metrics`` (its directory or metrics.csv; e.g. a finished row trained with another
+setting; up to three, each its own ``--reference``): its curve is drawn over the arms' span, and
+each arm's last evaluation is tested against the reference's at the same env steps. So an arm run
+for a fraction of a row's steps is compared with the row where the row was. Where the reference
+has its eval.json, each arm's final evaluation is also tested against it: so a study whose row has
+run before (``--arm`` the other values) is compared with that row. A reference whose config.json
+names an objective faces only that objective's arms (the AIRL row, the AIRL arms).
 """
 
 from __future__ import annotations
@@ -593,7 +594,8 @@ def report(study_name: str, study: Study, directory: str, sweep_spec: dict,
     table += ("\n\nAn arm is unfinished: every arm's evaluation during training at the last env "
               "steps all of them reached:\n\n" + "\n".join(during(by_label, study.metrics)))
   # references that logged their wall time join the table after the arms (the target stays the
-  # first arm's), named as such: they ran in another process, perhaps on another machine
+  # first arm's of the objective each faces), named as such: they ran in another process, perhaps
+  # on another machine
   timed = {f"{r.name} (reference)": (objectives[facing(r, objectives)[0]], r.rows)
            for r in references if r.rows and _timed(r.rows)}
   # the devices column, once any of them recorded where it ran

@@ -51,10 +51,10 @@ The working tree itself is most of a call's 64 MiB: the committed results (``ben
 ``benchmarks/multiagent``: figures, metrics and finished checkpoints, about 28 MiB) travel with
 every call, though nothing on the device reads them. With them and the wheels (24 MiB) no pack
 (28 MiB) fits. ``aside`` moves those folders (``ASIDE``) out of the tree, into ``.git/blx-aside``
-(which does not travel), for the calls; ``back`` returns them. A first call then carries the wheels
-and a pack (about 53 MiB), a later one two packs. Nothing is lost either way: ``aside`` refuses where
-``.git/blx-aside`` holds them already, ``back`` where the tree holds them again (say, after a
-checkout), and both leave the other side as it was. While they are aside, git sees them deleted:
+(which does not travel), for the calls; ``back`` returns them. A first call then carries the
+wheels and a pack (about 53 MiB), a later one two packs. Nothing is lost either way: ``aside``
+refuses where ``.git/blx-aside`` holds them already, ``back`` where the tree holds them again (say,
+after a checkout), and both leave the other side as it was. While they are aside, git sees them deleted:
 commit nothing with ``-a`` until ``back``.
 """
 

@@ -36,7 +36,7 @@ from blx.training import checkpoint
 __all__ = ["FORMAT_VERSION", "RunSpec", "Run", "RunError", "build", "load_run", "write_config",
            "write_metrics_csv", "default_obs_indices", "evaluator_for", "evaluate_run",
            "evaluate_run_keys", "summarise", "read_spec", "train_run", "write_eval", "Segment",
-           "this_machine", "read_provenance", "EVAL_PROTOCOLS"]
+           "this_machine", "read_provenance", "EVAL_PROTOCOLS", "check_eval_protocol"]
 
 FORMAT_VERSION = 1
 PROVENANCE = "provenance.json"
@@ -326,8 +326,8 @@ def evaluator_for(env, objective, *, quick: bool = False):
   return metrics.evaluator_for(env, objective, quick=quick)
 
 
-def _check_eval_protocol(directory: str, eval_metrics: bool, eval_protocol: str,
-                         segments: list[Segment]) -> None:
+def check_eval_protocol(directory: str, eval_metrics: bool, eval_protocol: str,
+                        segments: list[Segment] = ()) -> None:
   """Refuses a protocol blx does not know, one asked without metrics to log, and a resume that
   would log its curves with another protocol than the run's so far (one curve, two estimators)."""
   if eval_protocol not in EVAL_PROTOCOLS:
@@ -406,7 +406,7 @@ def train_run(spec: RunSpec, directory: str, *, resume: bool = False, progress=T
       raise RunError(f"{directory!r} holds a run of {old.objective} on {old.env} with seeds "
                      f"{list(old.seeds)}; resume it with the same settings")
   segments = read_provenance(directory) if exists else []
-  _check_eval_protocol(directory, eval_metrics, eval_protocol, segments)
+  check_eval_protocol(directory, eval_metrics, eval_protocol, segments)
   if not exists:  # a resumed run keeps its config.json untouched
     write_config(directory, spec, env)
   evaluator = (evaluator_for(env, objective, quick=eval_protocol == "quick") if eval_metrics

@@ -164,6 +164,7 @@ def run_sweep(spec: dict, out: str, *, progress=True, eval_metrics: bool = False
   this call trains.
   """
   check_spec(spec)
+  runs.check_eval_protocol(out, eval_metrics, eval_protocol)  # before any directory is made
   points = expand(spec)
   # Build everything first so a bad option fails before any training; the tables ask
   # blx.metrics how each objective is measured.

@@ -687,7 +687,8 @@ def test_a_reference_of_one_objective_faces_only_the_arms_of_that_objective(tmp_
   assert airl in final_airl and gail not in final_airl
   from scipy import stats
   t = stats.ttest_ind([2.0, 2.1], [3.0, 3.2], equal_var=False).statistic
-  assert final_airl.splitlines()[-1].startswith(f"| {airl} | {key} | 2.050 ± 0.050 (2) | {t:+.2f} |")
+  assert final_airl.splitlines()[-1].startswith(
+      f"| {airl} | {key} | 2.050 ± 0.050 (2) | {t:+.2f} |")
   final_gail = table.split("first GAIL row's")[1].split("\n\n")[1]
   assert gail in final_gail and airl not in final_gail
   assert "arms of another objective" not in table

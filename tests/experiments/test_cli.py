@@ -440,6 +440,15 @@ def test_the_eval_protocol_sets_the_rollouts_logged_during_training_and_a_run_ke
   with pytest.raises(SystemExit) as e:
     cli.main(["train", "--eval-protocol", "slow", *TINY])
   assert e.value.code == 2 and "invalid choice: 'slow'" in capsys.readouterr().err
+  # a sweep refuses it before its directory is made
+  path = tmp_path / "spec.json"
+  path.write_text(json.dumps({"env": "point", "objective": "diayn", "steps": 1600,
+                              "config": dict(TINY_CONFIG, policy_hidden=[[16, 16]],
+                                             value_hidden=[[16, 16]])}))
+  assert cli.main(["sweep", str(path), "--out", str(tmp_path / "sweep"), "--eval-protocol",
+                   "final"]) == 2
+  assert "none are logged: add --eval-metrics" in capsys.readouterr().err
+  assert not os.path.exists(tmp_path / "sweep")
 
 
 def test_provenance_is_empty_for_an_older_run_and_a_foreign_file_is_named(tmp_path):
