@@ -39,7 +39,7 @@ import math
 import os
 import sys
 
-from blx.experiments import cli, sweep
+from blx.experiments import cli, runs, sweep
 from blx.training.config import ppo_defaults
 
 # The paper's rows (Tables 3 and 4; 10 seeds): env -> algorithm -> metric -> (mean, std). -LGR and
@@ -260,9 +260,10 @@ def main():
   known = [o for spec in specs(1).values() for o in spec["objective"]]
   if args.first_seed < 0:
     parser.error(f"--first-seed {args.first_seed}: must be >= 0")
-  if args.eval_protocol != "quick" and not args.eval_metrics:
-    parser.error(f"--eval-protocol {args.eval_protocol}: sets how the metrics logged during "
-                 "training are evaluated; add --eval-metrics")
+  try:  # the run's own check, before anything trains
+    runs.check_eval_protocol(args.out or "", args.eval_metrics, args.eval_protocol)
+  except runs.RunError as e:
+    parser.error(f"--eval-protocol: {e}")
   if args.objective and args.objective not in known:
     parser.error(f"--objective {args.objective!r}: valid ones are {known}")
   select = None

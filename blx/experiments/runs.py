@@ -327,7 +327,7 @@ def evaluator_for(env, objective, *, quick: bool = False):
 
 
 def check_eval_protocol(directory: str, eval_metrics: bool, eval_protocol: str,
-                        segments: list[Segment] = ()) -> None:
+                        segments: Sequence[Segment] = ()) -> None:
   """Refuses a protocol blx does not know, one asked without metrics to log, and a resume that
   would log its curves with another protocol than the run's so far (one curve, two estimators)."""
   if eval_protocol not in EVAL_PROTOCOLS:

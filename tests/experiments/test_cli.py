@@ -439,7 +439,9 @@ def test_the_eval_protocol_sets_the_rollouts_logged_during_training_and_a_run_ke
   assert "none are logged: add --eval-metrics" in capsys.readouterr().err
   with pytest.raises(SystemExit) as e:
     cli.main(["train", "--eval-protocol", "slow", *TINY])
-  assert e.value.code == 2 and "invalid choice: 'slow'" in capsys.readouterr().err
+  err = capsys.readouterr().err
+  assert e.value.code == 2 and "invalid choice: 'slow'" in err
+  assert all(f"'{p}'" in err for p in runs.EVAL_PROTOCOLS)  # the flag offers runs' protocols
   # a sweep refuses it before its directory is made
   path = tmp_path / "spec.json"
   path.write_text(json.dumps({"env": "point", "objective": "diayn", "steps": 1600,

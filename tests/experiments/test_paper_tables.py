@@ -181,7 +181,8 @@ def test_the_eval_protocol_reaches_the_sweep_and_is_refused_without_eval_metrics
   monkeypatch.setattr("sys.argv", argv)
   with pytest.raises(SystemExit):
     paper_tables.main()
-  assert "--eval-protocol final: sets how the metrics logged" in capsys.readouterr().err
+  assert ("--eval-protocol: eval_protocol 'final' sets how the metrics logged during training are "
+          "evaluated, and none are logged: add --eval-metrics") in capsys.readouterr().err
   assert not trained
   monkeypatch.setattr("sys.argv", argv + ["--eval-metrics"])
   paper_tables.main()
