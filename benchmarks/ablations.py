@@ -44,7 +44,9 @@ evaluated are reused, so ``--arm`` (and, in a study of several objectives, ``--o
 one process per GPU train one arm and a last call (``--report``) draws them together. Writes
 ``OUT/STUDY_ENV/``: the sweep's run directories, ``curves.png`` (each metric against env steps,
 mean and std over seeds per arm) and ``ablation.md`` (each arm's final metrics, mean +- std over
-seeds, Welch's t-test against the first arm). ``--reference NAME=PATH`` adds another run trained
+seeds, Welch's t-test against the first arm; the wall time to the first arm's last mean and, where
+the paper reports the arm's objective, to the paper's mean, on the curve of Braxlines' window
+where the run logged it). ``--reference NAME=PATH`` adds another run trained
 with ``--eval-metrics`` (its directory or metrics.csv; e.g. a finished row trained with another
 setting; up to three, each its own ``--reference``): its curve is drawn over the arms' span, and
 each arm's last evaluation is tested against the reference's at the same env steps. So an arm run
@@ -432,6 +434,47 @@ def time_to(curves: dict[str, tuple[str, list[dict]]], metrics: tuple[str, ...],
   return rows
 
 
+def paper_value(env: str, objective: str, key: str) -> float | None:
+  """The paper's mean of ``key`` for ``objective`` on ``env`` (``paper_tables.PAPER``, which keeps
+  a lower-is-better metric negated), or None where the paper gives none."""
+  row = paper_tables.PAPER.get(env, {}).get(objective, {})
+  if key in row:
+    return row[key][0]
+  return -row[f"-{key}"][0] if f"-{key}" in row else None
+
+
+def time_to_paper(curves: dict[str, tuple[str, list[dict]]], env: str, metrics: tuple[str, ...],
+                  devices: dict[str, str] | None = None) -> list[str]:
+  """Markdown rows: per metric of ``BETTER`` and arm whose objective the paper reports on ``env``,
+  the env steps and wall time (as :func:`time_to`) at which the arm's mean over seeds first reaches
+  the paper's mean, or "not reached". The curve is that of Braxlines' window (``KEY_braxlines``,
+  where the paper's numbers were taken) where the run logged it, else blx's window, and the row
+  names which. ``curves`` and ``devices`` as :func:`time_to`; no rows where the paper gives no
+  value for any arm."""
+  rows = []
+  for key in (k for k in metrics if k in BETTER):
+    for label, (objective, arm_rows) in curves.items():
+      target = paper_value(env, objective, key)
+      column = f"{key}_braxlines"
+      steps, mean, _ = curve(arm_rows, column)
+      window = "Braxlines'"
+      if not steps:
+        (steps, mean, _), window = curve(arm_rows, key), "blx's"
+      if target is None or not steps:
+        continue
+      wall = {float(r["env_steps"]): float(r["time"]) for r in arm_rows if r.get("time")}
+      hit = next((s for s, m in zip(steps, mean) if BETTER[key] * (m - target) >= 0), None)
+      cells = (f"{hit / 1e6:.2f} M | {wall[hit]:,.0f} s" if hit is not None and hit in wall
+               else f"{hit / 1e6:.2f} M | not recorded" if hit is not None else "not reached | ")
+      rows.append(f"| {label} | {key} | {window} | {target:.3f} | {cells} |"
+                  + (f" {devices.get(label, 'not recorded')} |" if devices else ""))
+  if not rows:
+    return []
+  return (["| arm | metric | window | the paper's | env steps | wall time |"
+           + (" ran on |" if devices else ""),
+           "| --- | --- | --- | ---: | ---: | ---: |" + (" --- |" if devices else "")] + rows)
+
+
 def budget_line(study: Study, sweep_spec: dict, trained: float | None = None) -> str:
   """The arms' env steps per seed, and the original's where the arms ran another budget.
   ``trained``, the env steps the finished arms reached, is named where it is not the budget asked
@@ -608,6 +651,11 @@ def report(study_name: str, study: Study, directory: str, sweep_spec: dict,
               "run on one device" + ("; a reference ran in a process of its own, perhaps on "
                                      "another machine" if timed else "") + "):\n\n"
               + "\n".join(time_to({**by_label, **timed}, study.metrics, ran)))
+  to_paper = time_to_paper({**by_label, **timed}, sweep_spec["env"], study.metrics, ran)
+  if to_paper:
+    table += ("\n\nWall time to the paper's value (its mean, `paper_tables.PAPER`), mean over "
+              "seeds, from each run's start, on the curve of Braxlines' window where the run "
+              "logged it (the paper's numbers are in that window):\n\n" + "\n".join(to_paper))
   finished = [float(r["env_steps"]) for n in arms for r in curves[n] if r.get("env_steps")]
   trained = max(finished) if finished else None
   for reference in references:

@@ -455,9 +455,10 @@ def _parser() -> argparse.ArgumentParser:
 
 def add_eval_protocol_flag(parser) -> None:
   """``--eval-protocol``, as train, sweep and the benchmarks' studies take it."""
-  parser.add_argument("--eval-protocol", choices=("quick", "final"), default="quick",
+  parser.add_argument("--eval-protocol", choices=("quick", "final"), default=None,
                       help="with --eval-metrics: the rollouts of the metrics logged during "
-                           "training, quick (4 episodes; the default) or final (eval.json's 10)")
+                           "training, quick (4 episodes) or final (eval.json's 10); by default "
+                           "a resumed run's own, else quick")
 
 
 def _quiet_imports() -> None:

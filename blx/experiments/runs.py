@@ -326,20 +326,25 @@ def evaluator_for(env, objective, *, quick: bool = False):
   return metrics.evaluator_for(env, objective, quick=quick)
 
 
-def check_eval_protocol(directory: str, eval_metrics: bool, eval_protocol: str,
-                        segments: Sequence[Segment] = ()) -> None:
-  """Refuses a protocol blx does not know, one asked without metrics to log, and a resume that
-  would log its curves with another protocol than the run's so far (one curve, two estimators)."""
+def check_eval_protocol(directory: str, eval_metrics: bool, eval_protocol: str | None,
+                        segments: Sequence[Segment] = ()) -> str:
+  """The protocol a run logs its curves with: ``eval_protocol``, or where it is None the run's
+  own (the last one ``segments`` record), else "quick". Refuses a protocol blx does not know, one
+  asked without metrics to log, and a resume that would log its curves with another protocol than
+  the run's so far (one curve, two estimators)."""
+  logged = [s.eval_protocol for s in segments if s.eval_protocol is not None]
+  if eval_protocol is None:
+    return logged[-1] if eval_metrics and logged else "quick"
   if eval_protocol not in EVAL_PROTOCOLS:
     raise RunError(f"eval_protocol {eval_protocol!r}: valid are {', '.join(EVAL_PROTOCOLS)}")
   if eval_protocol != "quick" and not eval_metrics:
     raise RunError(f"eval_protocol {eval_protocol!r} sets how the metrics logged during training "
                    "are evaluated, and none are logged: add --eval-metrics (eval_metrics=True)")
-  logged = [s.eval_protocol for s in segments if s.eval_protocol is not None]
   if eval_metrics and logged and logged[-1] != eval_protocol:
     raise RunError(f"{directory!r} logged its metrics during training with the {logged[-1]!r} "
-                   f"protocol ({PROVENANCE}); resume it with --eval-protocol {logged[-1]}, so that "
-                   "one curve has one estimator, or train a new run")
+                   f"protocol ({PROVENANCE}); resume it with --eval-protocol {logged[-1]}, or "
+                   "without the flag, so that one curve has one estimator, or train a new run")
+  return eval_protocol
 
 
 def evaluate_run(run: Run, *, key_seed: int = 0) -> dict[str, list[float]]:
@@ -380,13 +385,14 @@ def summarise(values: dict[str, list[float]]) -> dict[str, dict[str, float]]:
 
 
 def train_run(spec: RunSpec, directory: str, *, resume: bool = False, progress=True,
-              eval_metrics: bool = False, eval_protocol: str = "quick") -> Run:
+              eval_metrics: bool = False, eval_protocol: str | None = None) -> Run:
   """Trains ``spec`` into ``directory`` and completes it: config, checkpoint, metrics.csv, then
   ``eval.json`` and the plots. ``run.meta`` holds ``history``, ``eval`` and ``plots`` (paths).
 
   ``eval_metrics`` also logs the paper's metrics (MI, energy distance, ...) at every evaluation
-  during training, with ``eval_protocol``'s rollouts (``EVAL_PROTOCOLS``: "quick", the default, or
-  "final", eval.json's), recorded in ``provenance.json``; a resumed run keeps its protocol.
+  during training, with ``eval_protocol``'s rollouts (``EVAL_PROTOCOLS``: "quick" or "final",
+  eval.json's), recorded in ``provenance.json``. None, the default, is the run's own protocol when
+  it is resumed, else "quick"; another than the run's own is refused.
 
   An existing run directory is only continued with ``resume=True``; it is never overwritten.
   """
@@ -406,7 +412,7 @@ def train_run(spec: RunSpec, directory: str, *, resume: bool = False, progress=T
       raise RunError(f"{directory!r} holds a run of {old.objective} on {old.env} with seeds "
                      f"{list(old.seeds)}; resume it with the same settings")
   segments = read_provenance(directory) if exists else []
-  check_eval_protocol(directory, eval_metrics, eval_protocol, segments)
+  eval_protocol = check_eval_protocol(directory, eval_metrics, eval_protocol, segments)
   if not exists:  # a resumed run keeps its config.json untouched
     write_config(directory, spec, env)
   evaluator = (evaluator_for(env, objective, quick=eval_protocol == "quick") if eval_metrics

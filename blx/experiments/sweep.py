@@ -152,7 +152,7 @@ def _check_same_point(name: str, directory: str, run_spec: runs.RunSpec, desc: d
 
 def run_sweep(spec: dict, out: str, *, progress=True, eval_metrics: bool = False,
               select: Callable[[str, runs.RunSpec], bool] | None = None,
-              eval_protocol: str = "quick") -> list[dict]:
+              eval_protocol: str | None = None) -> list[dict]:
   """Trains and evaluates every grid point (reusing points already evaluated with the same
   definition; a point whose directory holds another definition is an error), then writes
   ``summary.md``, ``summary.csv`` and ``summary.tex`` in ``out``; returns the table rows.
@@ -161,7 +161,7 @@ def run_sweep(spec: dict, out: str, *, progress=True, eval_metrics: bool = False
   the tables only if already evaluated (in ``out``). Several processes (one per GPU, say) can so
   share one sweep: each trains its own points, and a last call with ``select=lambda *_: False``
   gathers them all. ``eval_metrics`` and ``eval_protocol``: ``runs.train_run``'s, for every point
-  this call trains.
+  this call trains (None: each point's own protocol where it resumes, else "quick").
   """
   check_spec(spec)
   runs.check_eval_protocol(out, eval_metrics, eval_protocol)  # before any directory is made

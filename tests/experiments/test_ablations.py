@@ -271,6 +271,35 @@ def test_time_to_is_the_wall_time_at_which_each_arm_first_reaches_the_first_arms
       ["stuck", "eval/episode_score", "-200.000", "not reached", ""]]  # the length has no target
 
 
+def test_time_to_paper_reaches_the_papers_mean_on_the_curve_of_braxlines_window():
+  m = 1e6
+
+  def rows(points):  # {(seed, env steps): (blx's window, Braxlines' or None)}; 10 s per M steps
+    return [{"seed": seed, "env_steps": step, "time": step / 1e5, "eval/energy_distance": blx,
+             **({"eval/energy_distance_braxlines": brax} if brax is not None else {})}
+            for (seed, step), (blx, brax) in points.items()]
+  # The paper's Ant GAIL is 0.802, its AIRL 2.588 (paper_tables.PAPER). The first arm reaches
+  # 0.802 in Braxlines' window at 20 M and never in blx's; the second logged blx's window alone
+  # and reaches it there at 10 M; the AIRL arm never gets there; "task" has no paper value.
+  gail = rows({(0, 10 * m): (2.0, 1.0), (1, 10 * m): (2.0, 0.9),
+               (0, 20 * m): (1.9, 0.8), (1, 20 * m): (1.9, 0.7)})
+  older = rows({(0, 10 * m): (0.8, None), (1, 10 * m): (0.7, None)})
+  airl = rows({(0, 10 * m): (3.0, 3.0), (1, 10 * m): (2.9, 2.8)})
+  task = rows({(0, 10 * m): (0.1, 0.1), (1, 10 * m): (0.1, 0.1)})
+  table = ablations.time_to_paper({"gail": ("gail", gail), "older": ("gail", older),
+                                   "airl": ("airl", airl), "task": ("task", task)}, "ant",
+                                  ("eval/energy_distance", "eval/mode_balance"))
+  cells = [[c.strip() for c in r.split("|")[1:-1]] for r in table[2:]]
+  assert cells == [
+      ["gail", "eval/energy_distance", "Braxlines'", "0.802", "20.00 M", "200 s"],
+      ["older", "eval/energy_distance", "blx's", "0.802", "10.00 M", "100 s"],
+      ["airl", "eval/energy_distance", "Braxlines'", "2.588", "not reached", ""]]
+  # Nothing the paper reports, nothing to write; a lower-is-better value is read back un-negated.
+  assert ablations.time_to_paper({"task": ("task", task)}, "ant", ("eval/energy_distance",)) == []
+  assert ablations.paper_value("humanoid", "gail", "eval/energy_distance") == 1.790
+  assert ablations.paper_value("ant", "diayn", "eval/mi") == 1.115
+
+
 def test_against_tests_each_arms_last_evaluation_against_the_reference_at_the_same_steps(tmp_path):
   arm = [{"seed": s, "env_steps": step, "eval/mi": v}
          for (s, step), v in {(0, 10): 0.1, (1, 10): 0.3, (0, 20): 1.0, (1, 20): 1.2}.items()]
@@ -512,7 +541,8 @@ def test_the_eval_protocol_reaches_every_arm(monkeypatch, tmp_path):
   trained = []
   monkeypatch.setattr(sweep, "run_sweep", lambda *a, **k: trained.append(k))
   monkeypatch.setattr(ablations, "report", lambda *a: "")
-  for given, protocol in (([], "quick"), (["--eval-protocol", "final"], "final")):
+  # no flag: None, each arm's own protocol where it resumes, else quick (runs.check_eval_protocol)
+  for given, protocol in (([], None), (["--eval-protocol", "final"], "final")):
     monkeypatch.setattr("sys.argv", ["ablations.py", "sn_diayn", "--out", str(tmp_path), *given])
     ablations.main()
     assert (trained[-1]["eval_metrics"], trained[-1]["eval_protocol"]) == (True, protocol)
@@ -577,6 +607,7 @@ def test_an_unfinished_arm_is_drawn_and_compared_at_the_last_steps_every_arm_rea
   assert "(unfinished)" not in finals  # no eval.json: not among the final evaluations
   from scipy import stats
   want = stats.ttest_ind([2.7, 2.9], [1.8, 2.0], equal_var=False)
+  during = during.split("\n\nWall time")[0]  # the tables of wall time follow
   rows = [r for r in during.splitlines() if r.startswith("| airl")]
   assert [[c.strip() for c in r.split("|")[3:7]] for r in rows] == [
       ["20.00 M", "1.900 ± 0.100 (2)", "", ""],
@@ -588,6 +619,7 @@ def test_an_unfinished_arm_is_drawn_and_compared_at_the_last_steps_every_arm_rea
   table = ablations.report("gp", study, str(tmp_path), spec)
   finals, during = table.split("An arm is unfinished")
   assert finals.startswith("No arm has its final evaluation (eval.json) yet.")
+  during = during.split("\n\nWall time")[0]
   assert [r for r in during.splitlines() if r.startswith("| airl")] == [
       rows[0].replace("row)", "row) (unfinished)"), rows[1]]
   (done / "metrics.csv").unlink(), (open_ / "metrics.csv").unlink()

@@ -428,6 +428,15 @@ def test_the_eval_protocol_sets_the_rollouts_logged_during_training_and_a_run_ke
   with pytest.raises(runs.RunError, match="with the 'final' protocol.*--eval-protocol final"):
     runs.train_run(spec, out, resume=True, eval_metrics=True, eval_protocol="quick")
   assert len(runs.read_provenance(out)) == 1 and asked == [False]
+  # Resumed without a protocol, it keeps its own; a new run without one logs the quick protocol.
+  with pytest.raises(KeyboardInterrupt):
+    runs.train_run(spec, out, resume=True, progress=killed, eval_metrics=True)
+  assert asked == [False, False]
+  assert [s.eval_protocol for s in runs.read_provenance(out)] == ["final", "final"]
+  with pytest.raises(KeyboardInterrupt):
+    runs.train_run(spec, str(tmp_path / "quick"), progress=killed, eval_metrics=True)
+  assert asked == [False, False, True]
+  assert [s.eval_protocol for s in runs.read_provenance(str(tmp_path / "quick"))] == ["quick"]
   # An unknown protocol, or one with no metrics to log, is named before a directory is made.
   for protocol, metrics, message in (("slow", True, "'slow': valid are quick, final"),
                                      ("final", False, "none are logged: add --eval-metrics")):
