@@ -18,14 +18,15 @@
 #    (SIGINT, then killed 30 s later) SECONDS after it starts: the run keeps its last whole
 #    checkpoint, written after every evaluation. Leave the call's 600 s room for that and the
 #    pack: SECONDS 540 at most.
-# 4. Carry back: RUN_DIR is packed (`carry.py pack`: checkpoints compact, without the envs' state)
-#    and its parts go to $OUT beside the log, so that a machine lost after the call loses
-#    nothing; calls side by side send their parts in turn ($STAGE_ROOT/blx-send.lock), each
-#    counting what the other left in $OUT; `carry.py park FILES_AT/NAME.tar.part_*` on the CPU
-#    machine keeps the last call's pack for the next session. Parts that do not fit the call's
-#    return (8 files, 64 MiB) stay in /tmp/stage-NAME, and `send` says so: a call of `python3
-#    benchmarks/carry.py send /tmp/stage-NAME $OUT` alone brings them, before the next call packs
-#    the run anew.
+# 4. Carry back: RUN_DIR, where it holds a checkpoint, is packed (`carry.py pack`: checkpoints
+#    compact, without the envs' state) and its parts go to $OUT beside the log, so that a machine
+#    lost after the call loses nothing (a new run stopped before its first checkpoint is not
+#    packed: nothing in it resumes); calls side by side send their parts in turn
+#    ($STAGE_ROOT/blx-send.lock), each counting what the other left in $OUT; `carry.py park
+#    FILES_AT/NAME.tar.part_*` on the CPU machine keeps the last call's pack for the next session.
+#    Parts that do not fit the call's return (8 files, 64 MiB) stay in /tmp/stage-NAME, and
+#    `send` says so: a call of `python3 benchmarks/carry.py send /tmp/stage-NAME $OUT` alone
+#    brings them, before the next call packs the run anew.
 #
 # The exit status is COMMAND's (124 when interrupted at SECONDS), 2 for a bad call, or 3 where
 # RESUME=1 finds nothing to resume.
@@ -99,8 +100,13 @@ timeout -s INT -k 30 "$seconds" "$@" >> "$log" 2>&1
 status=$?
 echo "[device_call] $(date -u +%FT%TZ) exit status $status" | tee -a "$log"
 
-# 4. Carry back.
-if [ -d "$run_dir" ]; then
+# 4. Carry back, where there is a checkpoint to resume from: a new run stopped before its first
+#    chunk ended has none, and its pack would only take a file of the call's return.
+checkpoint=$( [ -d "$run_dir" ] && find "$run_dir" -path '*/checkpoint/*' -type f -print -quit)
+if [ -d "$run_dir" ] && [ -z "$checkpoint" ]; then
+  echo "[device_call] $run_dir holds no checkpoint (its first chunk did not end within" \
+    "${seconds} s): nothing to carry back; give a new run a longer stretch" | tee -a "$log"
+elif [ -d "$run_dir" ]; then
   rm -rf "$stage"
   if python3 "$here/carry.py" pack "$run_dir" "$stage" --name "$name" 2>&1 | tee -a "$log"; then
     # One send at a time: each fits its parts beside the files already in $OUT.

@@ -488,6 +488,18 @@ def test_a_device_call_told_to_resume_never_starts_a_run_anew(tmp_path):
   assert not (tmp_path / "trained").exists() and not (tmp_path / "runs").exists()
 
 
+def test_a_device_call_carries_nothing_back_for_a_run_that_never_reached_a_checkpoint(tmp_path):
+  # A new run stopped before its first chunk ended: its directory holds a config and a log, no
+  # checkpoint, so there is nothing to resume and no part is sent (it would take a returned file).
+  start = ("import os, time; os.makedirs('runs/hc/point'); "
+           "open('runs/hc/point/config.json', 'w').write('{}'); time.sleep(30)")
+  done = _device_call(tmp_path, tmp_path / "out", "hc", "runs/hc", 1, sys.executable, "-c", start)
+  assert done.returncode == 124
+  assert "holds no checkpoint" in (tmp_path / "out" / "hc.log").read_text()
+  assert not list((tmp_path / "out").glob("hc.tar.part_*"))
+  assert not (tmp_path / "stage-hc").exists()
+
+
 def test_a_device_call_names_a_bad_call(tmp_path):
   done = _device_call(tmp_path, tmp_path / "out", "hc", "runs/hc", "ten", "true")
   assert done.returncode == 2 and "SECONDS must be a whole number" in done.stderr
