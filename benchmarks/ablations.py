@@ -455,12 +455,12 @@ def time_to_paper(curves: dict[str, tuple[str, list[dict]]], env: str, metrics: 
   for key in (k for k in metrics if k in BETTER):
     for label, (objective, arm_rows) in curves.items():
       target = paper_value(env, objective, key)
-      column = f"{key}_braxlines"
-      steps, mean, _ = curve(arm_rows, column)
-      window = "Braxlines'"
+      if target is None:
+        continue
+      (steps, mean, _), window = curve(arm_rows, f"{key}_braxlines"), "Braxlines'"
       if not steps:
         (steps, mean, _), window = curve(arm_rows, key), "blx's"
-      if target is None or not steps:
+      if not steps:
         continue
       wall = {float(r["env_steps"]): float(r["time"]) for r in arm_rows if r.get("time")}
       hit = next((s for s, m in zip(steps, mean) if BETTER[key] * (m - target) >= 0), None)
