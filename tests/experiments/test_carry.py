@@ -489,7 +489,7 @@ def test_a_device_call_told_to_resume_never_starts_a_run_anew(tmp_path):
 
 
 def test_a_device_call_carries_nothing_back_for_a_run_that_never_reached_a_checkpoint(tmp_path):
-  # A new run stopped before its first chunk ended: its directory holds a config and a log, no
+  # A new run stopped before its first chunk ended: its directory holds a config.json and no
   # checkpoint, so there is nothing to resume and no part is sent (it would take a returned file).
   start = ("import os, time; os.makedirs('runs/hc/point'); "
            "open('runs/hc/point/config.json', 'w').write('{}'); time.sleep(30)")
