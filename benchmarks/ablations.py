@@ -406,6 +406,19 @@ def ran_on(segments: list[runs.Segment]) -> str:
   return ", then ".join(kinds) or "not recorded"
 
 
+def _reached(rows: list[dict], steps: list[float], mean: list[float], sign: float,
+             target: float) -> str:
+  """Two table cells: the env steps at which ``mean`` (a curve of ``rows``, at ``steps``) first
+  reaches ``target`` (``sign`` 1: from below, -1: from above) and the run's wall time there
+  (metrics.csv's ``time``; "not recorded" where the row has none); "not reached" and an empty
+  cell where it never does."""
+  hit = next((s for s, m in zip(steps, mean) if sign * (m - target) >= 0), None)
+  if hit is None:
+    return "not reached | "
+  wall = {float(r["env_steps"]): float(r["time"]) for r in rows if r.get("time")}
+  return f"{hit / 1e6:.2f} M | " + (f"{wall[hit]:,.0f} s" if hit in wall else "not recorded")
+
+
 def time_to(curves: dict[str, tuple[str, list[dict]]], metrics: tuple[str, ...],
             devices: dict[str, str] | None = None) -> list[str]:
   """Markdown rows: per metric of ``BETTER``, the first arm's (of each objective) last evaluation
@@ -425,10 +438,7 @@ def time_to(curves: dict[str, tuple[str, list[dict]]], metrics: tuple[str, ...],
       if not steps:
         continue
       target = targets.setdefault(objective, mean[-1])
-      wall = {float(r["env_steps"]): float(r["time"]) for r in arm_rows if r.get("time")}
-      hit = next((s for s, m in zip(steps, mean) if sign * (m - target) >= 0), None)
-      cells = (f"{hit / 1e6:.2f} M | {wall[hit]:,.0f} s" if hit is not None and hit in wall
-               else "not reached | ")
+      cells = _reached(arm_rows, steps, mean, sign, target)
       rows.append(f"| {label} | {key} | {target:.3f} | {cells} |"
                   + (f" {devices.get(label, 'not recorded')} |" if devices else ""))
   return rows
@@ -462,10 +472,7 @@ def time_to_paper(curves: dict[str, tuple[str, list[dict]]], env: str, metrics: 
         (steps, mean, _), window = curve(arm_rows, key), "blx's"
       if not steps:
         continue
-      wall = {float(r["env_steps"]): float(r["time"]) for r in arm_rows if r.get("time")}
-      hit = next((s for s, m in zip(steps, mean) if BETTER[key] * (m - target) >= 0), None)
-      cells = (f"{hit / 1e6:.2f} M | {wall[hit]:,.0f} s" if hit is not None and hit in wall
-               else f"{hit / 1e6:.2f} M | not recorded" if hit is not None else "not reached | ")
+      cells = _reached(arm_rows, steps, mean, BETTER[key], target)
       rows.append(f"| {label} | {key} | {window} | {target:.3f} | {cells} |"
                   + (f" {devices.get(label, 'not recorded')} |" if devices else ""))
   if not rows:
@@ -641,6 +648,7 @@ def report(study_name: str, study: Study, directory: str, sweep_spec: dict,
   # on another machine
   timed = {f"{r.name} (reference)": (objectives[facing(r, objectives)[0]], r.rows)
            for r in references if r.rows and _timed(r.rows)}
+  with_timed = {**by_label, **timed}
   # the devices column, once any of them recorded where it ran
   ran = {**{labels[n]: devices[n] for n in curves},
          **{f"{r.name} (reference)": list(r.segments) for r in references}}
@@ -650,8 +658,8 @@ def report(study_name: str, study: Study, directory: str, sweep_spec: dict,
               "seeds), from each run's start, compilation and evaluations included (compare arms "
               "run on one device" + ("; a reference ran in a process of its own, perhaps on "
                                      "another machine" if timed else "") + "):\n\n"
-              + "\n".join(time_to({**by_label, **timed}, study.metrics, ran)))
-  to_paper = time_to_paper({**by_label, **timed}, sweep_spec["env"], study.metrics, ran)
+              + "\n".join(time_to(with_timed, study.metrics, ran)))
+  to_paper = time_to_paper(with_timed, sweep_spec["env"], study.metrics, ran)
   if to_paper:
     table += ("\n\nWall time to the paper's value (its mean, `paper_tables.PAPER`), mean over "
               "seeds, from each run's start, on the curve of Braxlines' window where the run "

@@ -102,8 +102,8 @@ echo "[device_call] $(date -u +%FT%TZ) exit status $status" | tee -a "$log"
 
 # 4. Carry back, where there is a checkpoint to resume from: a new run stopped before its first
 #    chunk ended has none, and its pack would only take a file of the call's return.
-checkpoint=$( [ -d "$run_dir" ] && find "$run_dir" -path '*/checkpoint/*' -type f -print -quit)
-if [ -d "$run_dir" ] && [ -z "$checkpoint" ]; then
+if [ -d "$run_dir" ] && [ -z "$(find "$run_dir" -path '*/checkpoint/*' -type f -print -quit)" ]
+then
   echo "[device_call] $run_dir holds no checkpoint (its first chunk did not end within" \
     "${seconds} s): nothing to carry back; give a new run a longer stretch" | tee -a "$log"
 elif [ -d "$run_dir" ]; then
