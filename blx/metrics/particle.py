@@ -146,13 +146,15 @@ def latent_goal_reaching(states: jax.Array, goals: jax.Array, *,
 def _mean_pairwise_distance(a: jax.Array, b: jax.Array, block: int, wa: jax.Array,
                             wb: jax.Array) -> jax.Array:
   """sum_{i,j} wa_i wb_j ||a_i - b_j|| / (sum wa sum wb) computed block by block: memory
-  O(block^2), not O(N M)."""
+  O(block^2), not O(N M). An array shorter than ``block`` is one block of its own length, so small
+  inputs are not padded to ``block``."""
   def pad(x, w):
     n = x.shape[0]
-    blocks = -(-n // block)
-    x = jnp.pad(x, ((0, blocks * block - n), (0, 0)))
-    w = jnp.pad(w.astype(x.dtype), (0, blocks * block - n))  # padding weighs 0
-    return x.reshape(blocks, block, -1), w.reshape(blocks, block)
+    size = min(block, n)
+    blocks = -(-n // size)
+    x = jnp.pad(x, ((0, blocks * size - n), (0, 0)))
+    w = jnp.pad(w.astype(x.dtype), (0, blocks * size - n))  # padding weighs 0
+    return x.reshape(blocks, size, -1), w.reshape(blocks, size)
 
   a_blocks, a_weights = pad(a, wa)
   b_blocks, b_weights = pad(b, wb)
