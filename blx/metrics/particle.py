@@ -188,6 +188,11 @@ def energy_distance(x: jax.Array, y: jax.Array, *, weights: jax.Array | None = N
   y = y[:, None] if y.ndim == 1 else y
   chex.assert_rank([x, y], 2)
   chex.assert_equal_shape_suffix([x, y], 1)
+  if not (x.shape[0] and y.shape[0]):
+    raise ValueError(f"energy_distance: x and y need at least one sample each, got {x.shape[0]} "
+                     f"and {y.shape[0]}")
+  if isinstance(block_size, bool) or not isinstance(block_size, int) or block_size < 1:
+    raise ValueError(f"energy_distance: block_size must be an int >= 1, got {block_size!r}")
   wx = _weights(weights, x.shape[0])
   wy = jnp.ones(y.shape[0])
   mpd = lambda a, b, wa, wb: _mean_pairwise_distance(a, b, block_size, wa, wb)

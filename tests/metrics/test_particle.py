@@ -117,6 +117,15 @@ def test_energy_distance_matches_direct_numpy(dim):
   assert float(got) == pytest.approx(float(direct), rel=1e-5)
 
 
+def test_energy_distance_refuses_an_empty_sample_or_block():
+  x = jnp.ones((3, 2))
+  with pytest.raises(ValueError, match="at least one sample each, got 0 and 3"):
+    metrics.energy_distance(jnp.ones((0, 2)), x)
+  for bad in (0, 2.5):
+    with pytest.raises(ValueError, match="block_size must be an int >= 1"):
+      metrics.energy_distance(x, x, block_size=bad)
+
+
 def test_energy_distance_properties():
   rng = np.random.default_rng(0)
   x, y = jnp.asarray(rng.normal(0, 1, (200, 2))), jnp.asarray(rng.normal(0, 1, (150, 2)))
