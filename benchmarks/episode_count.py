@@ -78,13 +78,17 @@ def set_distance(to_target: jax.Array, between: jax.Array, kept: jax.Array) -> j
   return kept @ to_target / n - 0.5 * kept @ between @ kept / n**2
 
 
+def between_different(between: jax.Array) -> jax.Array:
+  """B: the mean of ``between [M, M]`` over pairs of different episodes (its diagonal is 0)."""
+  m = between.shape[0]
+  return (between.sum() - jnp.trace(between)) / (m * (m - 1))
+
+
 def expected_distance(to_target: jax.Array, between: jax.Array, size: int) -> jax.Array:
-  """The mean of ``set_distance`` over every set of ``size`` of the M episodes, in closed form:
-  A - (1 - 1/k) B / 2, A the mean distance of an episode to the target and B the mean distance
-  between two different episodes. Fewer episodes lose less to B, so read higher."""
-  m = to_target.shape[0]
-  off = (between.sum() - jnp.trace(between)) / (m * (m - 1))
-  return to_target.mean() - 0.5 * (1.0 - 1.0 / size) * off
+  """The mean of ``set_distance`` over every set of ``size`` (k) of the M episodes, in closed
+  form: A - (1 - 1/k) B / 2, A the mean distance of an episode to the target and B
+  ``between_different``. Fewer episodes lose less to B, so read higher."""
+  return to_target.mean() - 0.5 * (1.0 - 1.0 / size) * between_different(between)
 
 
 def subset_distances(to_target: jax.Array, between: jax.Array, size: int, draws: int,
@@ -120,7 +124,7 @@ def analyse(run: runs.Run, params, key: jax.Array, *, pool: int, sizes: tuple[in
   out = {"energy_distance_pool": metrics.energy_distance(states.reshape(-1, len(indices)),
                                                          target),
          "episode_to_target": to_target.mean(),
-         "between_episodes": (between.sum() - jnp.trace(between)) / (pool * (pool - 1))}
+         "between_episodes": between_different(between)}
   for i, k in enumerate(sizes):
     ed = subset_distances(to_target, between, k, draws, jax.random.fold_in(draw_key, i))
     out[f"energy_distance/{k}"] = expected_distance(to_target, between, k)
@@ -206,8 +210,7 @@ def main(argv=None) -> int:
     picked = common.seed_positions(args.seeds, n)
   except ValueError as e:
     parser.error(str(e))
-  params = jax.tree.map(lambda x: x[np.asarray(picked)], run.params)
-  keys = jax.random.split(jax.random.PRNGKey(2), n)[np.asarray(picked)]
+  params, keys = common.picked_seeds(run, picked, 2)
   one = lambda p, k: analyse(run, p, k, pool=args.pool, sizes=sizes, draws=args.draws,
                              deterministic=args.deterministic)
   values = {k: np.asarray(v).tolist() for k, v in jax.jit(jax.vmap(one))(params, keys).items()}
