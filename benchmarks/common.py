@@ -10,6 +10,7 @@ import time
 from typing import Callable, Sequence
 
 import jax
+import numpy as np
 from mujoco import mjx
 
 from blx import envs
@@ -123,6 +124,15 @@ def seed_positions(text: str | None, num_seeds: int, flag: str = "--seeds") -> l
     raise ValueError(f"{flag} {','.join(map(str, bad))}: the run has {num_seeds} seeds, "
                      f"positions 0..{num_seeds - 1}")
   return picked
+
+
+def picked_seeds(run, picked: Sequence[int], key_seed: int) -> tuple:
+  """``(params, keys)`` of the seeds at positions ``picked`` of a loaded run: its params with the
+  seed axis cut to them, and a key for each, split from ``PRNGKey(key_seed)`` over all the run's
+  seeds, so that a seed's key does not depend on which others are picked."""
+  at = np.asarray(picked)
+  keys = jax.random.split(jax.random.PRNGKey(key_seed), len(run.spec.seeds))[at]
+  return jax.tree.map(lambda x: x[at], run.params), keys
 
 
 def run_label(spec, seeds: str | None = None) -> str:

@@ -371,8 +371,7 @@ def main(argv=None) -> int:
     parser.error("--noise-scale takes a number >= 0 and not --deterministic (which is scale 0)")
   if args.draws < 1:
     parser.error("--draws must be at least 1")
-  params = jax.tree.map(lambda x: x[np.asarray(picked)], run.params)
-  keys = jax.random.split(jax.random.PRNGKey(1), n)[np.asarray(picked)]
+  params, keys = common.picked_seeds(run, picked, 1)
   if dmin:
     one = lambda p, k: analyse_dmin(run, p, k, deterministic=args.deterministic,
                                     noise_scale=args.noise_scale)

@@ -224,8 +224,7 @@ def main(argv=None) -> int:
   window = 20 if args.window is None else args.window
   if not 1 <= window <= last:
     parser.error(f"--window {window}: give 1..{last} (the scored steps)")
-  params = jax.tree.map(lambda x: x[np.asarray(picked)], run.params)
-  keys = jax.random.split(jax.random.PRNGKey(1), n)[np.asarray(picked)]
+  params, keys = common.picked_seeds(run, picked, 1)
   scale = run.objective.spec.obs_scale
 
   def one(p, k):
