@@ -257,31 +257,31 @@ def final_with_mode_balance(result: dict) -> dict:
   return {**result, "per_seed": {**per_seed, BALANCE: [float(b) for b in balance]}}
 
 
-def _by_step(rows: list[dict], key: str) -> dict[float, dict[int, float]]:
+def by_step(rows: list[dict], key: str) -> dict[float, dict[int, float]]:
   """``{env steps: {seed: value}}`` of ``key`` in metrics.csv rows (rows without a finite value
   left out)."""
-  by_step: dict[float, dict[int, float]] = {}
+  values: dict[float, dict[int, float]] = {}
   for row in rows:
     value = row.get(key)
     if value not in (None, "") and math.isfinite(float(value)):
-      by_step.setdefault(float(row["env_steps"]), {})[int(float(row["seed"]))] = float(value)
-  return by_step
+      values.setdefault(float(row["env_steps"]), {})[int(float(row["seed"]))] = float(value)
+  return values
 
 
-def _complete(by_step: dict[float, dict[int, float]]) -> list[float]:
-  """The env steps of ``_by_step``'s result at which every seed has a value, in order."""
-  seeds = max((len(v) for v in by_step.values()), default=0)
-  return sorted(s for s, v in by_step.items() if len(v) == seeds)
+def complete_steps(values: dict[float, dict[int, float]]) -> list[float]:
+  """The env steps of ``by_step``'s result at which every seed has a value, in order."""
+  seeds = max((len(v) for v in values.values()), default=0)
+  return sorted(s for s, v in values.items() if len(v) == seeds)
 
 
 def curve(rows: list[dict], key: str) -> tuple[list[float], list[float], list[float]]:
   """``(env steps, mean, std)`` over seeds of ``key`` in metrics.csv rows, at every evaluation
   where every seed has a value."""
-  by_step = _by_step(rows, key)
-  steps = _complete(by_step)
-  seeds = len(by_step[steps[0]]) if steps else 0
-  mean = [sum(by_step[s].values()) / seeds for s in steps]
-  std = [math.sqrt(sum((x - m) ** 2 for x in by_step[s].values()) / seeds)
+  values = by_step(rows, key)
+  steps = complete_steps(values)
+  seeds = len(values[steps[0]]) if steps else 0
+  mean = [sum(values[s].values()) / seeds for s in steps]
+  std = [math.sqrt(sum((x - m) ** 2 for x in values[s].values()) / seeds)
          for s, m in zip(steps, mean)]
   return steps, mean, std
 
@@ -330,17 +330,17 @@ def against(curves: dict[str, list[dict]], name: str, reference: list[dict],
   last. ``curves``: ``{arm label: metrics.csv rows}``."""
   rows = [f"| arm | metric | env steps | arm: mean ± std (seeds) | {name}: mean ± std (seeds) "
           "| Welch t | p |", "| --- | --- | ---: | ---: | ---: | ---: | ---: |"]
-  ref_by_key = {key: _by_step(reference, key) for key in metrics}
+  ref_by_key = {key: by_step(reference, key) for key in metrics}
   for label, arm_rows in curves.items():
     for key in metrics:
-      by_step = _by_step(arm_rows, key)
-      steps = _complete(by_step)
+      arm_by_step = by_step(arm_rows, key)
+      steps = complete_steps(arm_by_step)
       if not steps:
         continue
       ref_by_step = ref_by_key[key]
       shared = [s for s in steps if ref_by_step.get(s)]
       step = shared[-1] if shared else steps[-1]
-      values = list(by_step[step].values())
+      values = list(arm_by_step[step].values())
       mean, std = paper_tables.mean_std(values)
       at = f"{step / 1e6:.2f} M" + ("" if step == steps[-1] else
                                     f" (the arm's last: {steps[-1] / 1e6:.2f} M)")
@@ -367,8 +367,9 @@ def during(curves: dict[str, tuple[str, list[dict]]], metrics: tuple[str, ...]) 
           "| --- | --- | ---: | ---: | ---: | ---: |"]
   first: dict[str, str] = {}
   for key in metrics:
-    by_arm = {label: _by_step(arm_rows, key) for label, (_, arm_rows) in curves.items()}
-    shared = set.intersection(*(set(_complete(b)) for b in by_arm.values())) if by_arm else set()
+    by_arm = {label: by_step(arm_rows, key) for label, (_, arm_rows) in curves.items()}
+    shared = (set.intersection(*(set(complete_steps(b)) for b in by_arm.values())) if by_arm
+              else set())
     if not shared:
       continue
     step = max(shared)
@@ -528,7 +529,7 @@ def read_reference(name: str, path: str, metrics: tuple[str, ...]) -> Reference:
     raise ValueError(f"{path}: not a run directory with metrics.csv, nor a metrics.csv file")
   with open(csv_path) as f:
     rows = with_mode_balance(list(csv.DictReader(f)))
-  if not any(_by_step(rows, key) for key in metrics):
+  if not any(by_step(rows, key) for key in metrics):
     raise ValueError(f"{csv_path}: logs none of {list(metrics)} (train it with --eval-metrics)")
   final, base = None, os.path.basename(csv_path)
   prefix = base[:-len("metrics.csv")] if base.endswith("metrics.csv") else None

@@ -6,6 +6,7 @@
                                       [--options JSON] [--steps N] [--eval-metrics]
                                       [--eval-protocol quick|final]
     python benchmarks/paper_tables.py --compare DIR [DIR ...]   # every eval.json against the paper
+    python benchmarks/paper_tables.py --progress DIR [DIR ...]  # rows under training, so far
 
 ``--objective`` trains only that algorithm's point (one process per GPU:
 ``CUDA_VISIBLE_DEVICES=i python benchmarks/paper_tables.py --objective NAME &`` for each), and
@@ -33,6 +34,7 @@ reaches the paper's mean - 1 std (in the direction where larger is better).
 from __future__ import annotations
 
 import argparse
+import csv
 import glob
 import json
 import math
@@ -161,12 +163,15 @@ def merge(evals: list[dict]) -> dict:
               per_seed={k: [v[i] for i in order] for k, v in per_seed.items()})
 
 
+VERDICT_HEADER = ["| env | algorithm | metric | blx (seeds) | paper (10) | Welch t | p "
+                  "| >= paper mean - std |",
+                  "| --- | --- | --- | ---: | ---: | ---: | ---: | --- |"]
+
+
 def compare(*directories: str) -> str:
   """The verdict table for every ``eval.json`` under the directories; files at the same path under
   several directories are parts of one row (``merge``)."""
-  rows = ["| env | algorithm | metric | blx (seeds) | paper (10) | Welch t | p "
-          "| >= paper mean - std |",
-          "| --- | --- | --- | ---: | ---: | ---: | ---: | --- |"]
+  rows = list(VERDICT_HEADER)
   parts: dict[str, list[dict]] = {}
   for directory in directories:
     for path in glob.glob(os.path.join(directory, "**", "*eval.json"), recursive=True):
@@ -175,6 +180,59 @@ def compare(*directories: str) -> str:
   for rel in sorted(parts):
     rows += verdicts(merge(parts[rel]))
   return "\n".join(rows)
+
+
+def progress(*directories: str) -> str:
+  """Where rows under training stand: for every run under the directories that logged the paper's
+  metrics during training (``--eval-metrics``: its ``metrics.csv``), the verdicts of its last
+  evaluation that every seed reached, against the paper (as ``verdicts``), and the env steps and
+  wall time at which its mean over seeds first reached the paper's mean (``ablations.
+  time_to_paper``). A run without a paper row or without those metrics, and a metrics.csv outside
+  a run directory, are named and passed over.
+  A row's parts trained in several programs (``--first-seed``) are each their own run here."""
+  import ablations  # its curves; it imports this module, so not at the top
+  out = []
+  paths = sorted({path for directory in directories for path in
+                  glob.glob(os.path.join(directory, "**", "metrics.csv"), recursive=True)})
+  if not paths:
+    raise ValueError(f"no metrics.csv under {', '.join(directories)}: give run directories, or "
+                     "the --out of paper_tables.py")
+  for path in paths:
+    run_dir = os.path.dirname(path)
+    try:
+      spec = runs.read_spec(run_dir)
+    except runs.RunError as e:
+      out.append(f"{run_dir}: passed over: {e}\n")
+      continue
+    paper = PAPER.get(spec.env, {}).get(spec.objective, {})
+    if not paper:
+      out.append(f"{run_dir}: {spec.objective} on {spec.env} has no row in the paper's tables\n")
+      continue
+    with open(path) as f:
+      rows = list(csv.DictReader(f))
+    keys = [key.lstrip("-") for key in paper]
+    keys += [f"{key}_braxlines" for key in keys]
+    values = {key: ablations.by_step(rows, key) for key in keys}
+    steps = ablations.complete_steps(values[keys[0]])
+    if not steps:
+      out.append(f"{run_dir}: no evaluation with the paper's metrics in its metrics.csv (train "
+                 "with --eval-metrics)\n")
+      continue
+    last = steps[-1]
+    seeds = sorted(values[keys[0]][last])
+    per_seed = {key: [by[last][s] for s in seeds] for key, by in values.items()
+                if set(by.get(last, {})) == set(seeds)}
+    budgets = [float(r["total_steps"]) for r in rows if r.get("total_steps")]
+    of = f" of {max(budgets) / 1e6:.1f} M" if budgets else ""  # runs before blx logged it: none
+    state = ("finished: its final evaluation, eval.json, is the row's verdict (--compare)"
+             if os.path.exists(os.path.join(run_dir, "eval.json")) else "under training")
+    out += [f"{run_dir}: {spec.objective} on {spec.env}, {state}; its last evaluation every seed "
+            f"reached, at {last / 1e6:.1f} M{of} env steps per seed:", ""]
+    out += VERDICT_HEADER + verdicts(dict(objective=spec.objective, env=spec.env,
+                                          per_seed=per_seed))
+    out += [""] + ablations.time_to_paper({spec.objective: (spec.objective, rows)}, spec.env,
+                                          tuple(k for k in keys if k in ablations.BETTER)) + [""]
+  return "\n".join(out)
 
 
 def paper_steps(env: str) -> int:
@@ -253,9 +311,20 @@ def main():
   parser.add_argument("--compare", nargs="+", default=None, metavar="DIR",
                       help="only print the verdicts for the eval.json files under DIR; files at "
                            "the same path under several DIRs are one row's parts")
+  parser.add_argument("--progress", nargs="+", default=None, metavar="DIR",
+                      help="only print where the runs under DIR stand during training (their "
+                           "metrics.csv, logged with --eval-metrics) against the paper")
   args = parser.parse_args()
+  if args.compare and args.progress:
+    parser.error("--compare and --progress: give one (the final verdicts, or the rows' progress)")
   if args.compare:
     print(compare(*args.compare))
+    return
+  if args.progress:
+    try:
+      print(progress(*args.progress))
+    except ValueError as e:
+      parser.error(f"--progress: {e}")
     return
   known = [o for spec in specs(1).values() for o in spec["objective"]]
   if args.first_seed < 0:

@@ -1,6 +1,7 @@
 """benchmarks/paper_tables.py: the paper's rows per env, the sweep specs that train them and the
 verdicts that compare blx with them."""
 
+import csv
 import json
 import math
 import os
@@ -9,7 +10,7 @@ import re
 import pytest
 from scipy import stats
 
-from blx.experiments import sweep
+from blx.experiments import runs, sweep
 from tests.experiments import load_benchmark
 
 paper_tables = load_benchmark("paper_tables")
@@ -187,3 +188,64 @@ def test_the_eval_protocol_reaches_the_sweep_and_is_refused_without_eval_metrics
   monkeypatch.setattr("sys.argv", argv + ["--eval-metrics"])
   paper_tables.main()
   assert [(k["eval_metrics"], k["eval_protocol"]) for k in trained] == [(True, "final")]
+
+
+def _run_dir(path, objective, env, evaluations, seeds=(0, 1, 2), budget=10e6):
+  """A run directory as training leaves it: config.json and metrics.csv with ``evaluations``,
+  ``[(env steps, wall seconds, {metrics.csv key: per-seed values})]`` (a seed with no value at an
+  evaluation has no row there: its chunk was still in flight)."""
+  path.mkdir(parents=True)
+  (path / "config.json").write_text(json.dumps({
+      "format_version": runs.FORMAT_VERSION, "env": env, "objective": objective,
+      "objective_options": {}, "ppo": {}, "seeds": list(seeds)}))
+  keys = sorted({key for _, _, values in evaluations for key in values})
+  with open(path / "metrics.csv", "w", newline="") as f:
+    writer = csv.DictWriter(f, ["seed", "env_steps", "total_steps", "time", *keys])
+    writer.writeheader()
+    for steps, wall, values in evaluations:
+      for i, seed in enumerate(seeds):
+        if all(i < len(v) for v in values.values()):
+          writer.writerow({"seed": seed, "env_steps": steps, "total_steps": budget, "time": wall,
+                           **{key: v[i] for key, v in values.items()}})
+  return path
+
+
+def test_progress_reads_a_row_under_training_at_its_last_evaluation_every_seed_reached(tmp_path):
+  key = "eval/energy_distance"  # HalfCheetah GAIL: the paper's 0.516 ± 0.640, lower is better
+  run = _run_dir(tmp_path / "hc_gail" / "dmin" / "objective=gail", "gail", "halfcheetah", [
+      (1e6, 10.0, {key: [1.0, 1.2, 1.4]}),
+      (2e6, 20.0, {key: [0.4, 0.5, 0.6]}),  # its mean, 0.5, first reaches the paper's 0.516
+      (3e6, 30.0, {key: [0.9, 1.0]})])  # seed 2 not yet evaluated: not the last evaluation
+  text = paper_tables.progress(str(tmp_path / "hc_gail"))
+  assert f"{run}: gail on halfcheetah, under training" in text
+  assert "at 2.0 M of 10.0 M env steps per seed" in text
+  _, _, p = paper_tables.welch([-0.4, -0.5, -0.6], -0.516, 0.640)
+  assert (f"| halfcheetah | gail | -eval/energy_distance | -0.500 ± 0.082 (3) | -0.516 ± 0.640 "
+          f"| +0.07 | {p:.3f} | yes |") in text
+  assert "| gail | eval/energy_distance | blx's | 0.516 | 2.00 M | 20 s |" in text
+  (run / "eval.json").write_text("{}")
+  assert "finished: its final evaluation, eval.json, is the row's verdict" in (
+      paper_tables.progress(str(tmp_path)))
+
+
+def test_progress_names_runs_it_cannot_read_against_the_paper(tmp_path, monkeypatch, capsys):
+  _run_dir(tmp_path / "push", "task", "ant_push", [(1e6, 10.0, {"eval/episode_score": [1, 2]})],
+           seeds=(0, 1))
+  _run_dir(tmp_path / "plain", "diayn", "ant", [(1e6, 10.0, {"loss/total": [1, 2]})],
+           seeds=(0, 1))
+  (tmp_path / "loose").mkdir()
+  (tmp_path / "loose" / "metrics.csv").write_text("seed,env_steps\n0,1\n")
+  text = paper_tables.progress(str(tmp_path))
+  assert "task on ant_push has no row in the paper's tables" in text
+  assert "loose: passed over:" in text and "not a blx run directory (no config.json)" in text
+  assert "no evaluation with the paper's metrics in its metrics.csv (train with --eval-metrics)" in (
+      text)
+  with pytest.raises(ValueError, match="no metrics.csv under .*empty"):
+    paper_tables.progress(str(tmp_path / "empty"))
+  for argv, message in (
+      (["--progress", str(tmp_path / "empty")], "--progress: no metrics.csv under"),
+      (["--progress", str(tmp_path), "--compare", str(tmp_path)], "give one")):
+    monkeypatch.setattr("sys.argv", ["paper_tables.py", *argv])
+    with pytest.raises(SystemExit):
+      paper_tables.main()
+    assert message in capsys.readouterr().err
