@@ -86,7 +86,7 @@ class Study:
   option: str
   values: tuple
   metrics: tuple[str, ...]     # eval.json / metrics.csv keys; compared at the last evaluation
-  claim: str                   # the conclusion the study tests (the paper's, unless ``paper`` is off)
+  claim: str                   # the conclusion tested (the paper's, unless ``paper`` is off)
   group: str = "options"
   envs: tuple[str, ...] | None = None   # the envs the study is defined for (None: every one)
   labels: tuple[str, ...] | None = None  # legend names of the values (default: the arm's name)

@@ -238,8 +238,8 @@ def test_progress_names_runs_it_cannot_read_against_the_paper(tmp_path, monkeypa
   text = paper_tables.progress(str(tmp_path))
   assert "task on ant_push has no row in the paper's tables" in text
   assert "loose: passed over:" in text and "not a blx run directory (no config.json)" in text
-  assert "no evaluation with the paper's metrics in its metrics.csv (train with --eval-metrics)" in (
-      text)
+  assert ("no evaluation with the paper's metrics in its metrics.csv (train with --eval-metrics)"
+          in text)
   with pytest.raises(ValueError, match="no metrics.csv under .*empty"):
     paper_tables.progress(str(tmp_path / "empty"))
   for argv, message in (
