@@ -6,7 +6,7 @@
                                       [--options JSON] [--steps N] [--eval-metrics]
                                       [--eval-protocol quick|final]
     python benchmarks/paper_tables.py --compare DIR [DIR ...]   # every eval.json against the paper
-    python benchmarks/paper_tables.py --progress DIR [DIR ...]  # rows under training, so far
+    python benchmarks/paper_tables.py --progress DIR [DIR ...] [--plot PNG]  # rows under way
 
 ``--objective`` trains only that algorithm's point (one process per GPU:
 ``CUDA_VISIBLE_DEVICES=i python benchmarks/paper_tables.py --objective NAME &`` for each), and
@@ -40,6 +40,7 @@ import json
 import math
 import os
 import sys
+import textwrap
 
 from blx.experiments import cli, runs, sweep
 from blx.training.config import ppo_defaults
@@ -182,40 +183,75 @@ def compare(*directories: str) -> str:
   return "\n".join(rows)
 
 
-def progress(*directories: str) -> str:
-  """Where rows under training stand: for every run under the directories that logged the paper's
-  metrics during training (``--eval-metrics``: its ``metrics.csv``), the verdicts of its last
-  evaluation that every seed reached, against the paper (as ``verdicts``), and the env steps and
-  wall time at which its mean over seeds first reached the paper's mean (``ablations.
-  time_to_paper``). A run without a paper row or without those metrics, and a metrics.csv outside
-  a run directory, are named and passed over.
-  A row's parts trained in several programs (``--first-seed``) are each their own run here."""
-  import ablations  # its curves; it imports this module, so not at the top
-  out = []
+def logged(*directories: str) -> list[tuple[str, dict | str, list[dict], bool]]:
+  """Every run under the directories that logged metrics during training: ``(name, config,
+  metrics.csv rows, finished)``, in name order. A run directory's ``metrics.csv`` goes with its
+  ``config.json`` and ``eval.json``; a committed row's ``NAME_metrics.csv`` (as under
+  ``benchmarks/paper/``) with ``NAME_config.json`` and ``NAME_eval.json``. ``config`` is the run's
+  config (its ``env`` and ``objective``), or a string saying why it cannot be read."""
   paths = sorted({path for directory in directories for path in
-                  glob.glob(os.path.join(directory, "**", "metrics.csv"), recursive=True)})
+                  glob.glob(os.path.join(directory, "**", "*metrics.csv"), recursive=True)})
   if not paths:
     raise ValueError(f"no metrics.csv under {', '.join(directories)}: give run directories, or "
                      "the --out of paper_tables.py")
+  found = []
   for path in paths:
-    run_dir = os.path.dirname(path)
-    try:
-      spec = runs.read_spec(run_dir)
-    except runs.RunError as e:
-      out.append(f"{run_dir}: passed over: {e}\n")
-      continue
-    paper = PAPER.get(spec.env, {}).get(spec.objective, {})
-    if not paper:
-      out.append(f"{run_dir}: {spec.objective} on {spec.env} has no row in the paper's tables\n")
-      continue
+    prefix = path[:-len("metrics.csv")]
+    name = prefix.rstrip("_/" + os.sep) or path
+    config: dict | str = f"no {os.path.basename(prefix)}config.json beside its metrics.csv"
+    if os.path.exists(prefix + "config.json"):
+      try:
+        with open(prefix + "config.json") as f:
+          read = json.load(f)
+        config = (read if isinstance(read, dict) and {"env", "objective"} <= set(read) else
+                  f"{prefix}config.json is not a blx run config (it names no env and objective)")
+      except (OSError, ValueError) as e:
+        config = f"{prefix}config.json is unreadable ({e})"
     with open(path) as f:
       rows = list(csv.DictReader(f))
+    found.append((name, config, rows, os.path.exists(prefix + "eval.json")))
+  return found
+
+
+def _paper_curves(rows: list[dict], env: str, objective: str):
+  """Per metric of the paper's row of ``objective`` on ``env``: ``(key, paper mean, paper std,
+  window, (env steps, mean, std))``, the curve in Braxlines' window (where the paper's numbers were
+  taken) where the run logged it, else in blx's."""
+  import ablations  # its curves; it imports this module, so not at the top
+  out = []
+  for key, (mean, std) in PAPER.get(env, {}).get(objective, {}).items():
+    sign, key = (-1.0, key[1:]) if key.startswith("-") else (1.0, key)
+    window, curve = "Braxlines' window", ablations.curve(rows, f"{key}_braxlines")
+    if not curve[0]:
+      window, curve = "blx's window", ablations.curve(rows, key)
+    out.append((key, sign * mean, std, window, curve))
+  return out
+
+
+def progress(*directories: str) -> str:
+  """Where rows under training stand: for every run under the directories (``logged``) that logged
+  the paper's metrics during training (``--eval-metrics``), the verdicts of its last evaluation
+  that every seed reached, against the paper (as ``verdicts``), and the env steps and wall time at
+  which its mean over seeds first reached the paper's mean (``ablations.time_to_paper``). A run
+  without a paper row, without those metrics, or without its config is named and passed over. A
+  row's parts trained in several programs (``--first-seed``) are each their own run here."""
+  import ablations  # its curves; it imports this module, so not at the top
+  out = []
+  for name, config, rows, finished in logged(*directories):
+    if isinstance(config, str):
+      out.append(f"{name}: passed over: {config}\n")
+      continue
+    env, objective = config["env"], config["objective"]
+    paper = PAPER.get(env, {}).get(objective, {})
+    if not paper:
+      out.append(f"{name}: {objective} on {env} has no row in the paper's tables\n")
+      continue
     keys = [key.lstrip("-") for key in paper]
     keys += [f"{key}_braxlines" for key in keys]
     values = {key: ablations.by_step(rows, key) for key in keys}
     steps = ablations.complete_steps(values[keys[0]])
     if not steps:
-      out.append(f"{run_dir}: no evaluation with the paper's metrics in its metrics.csv (train "
+      out.append(f"{name}: no evaluation with the paper's metrics in its metrics.csv (train "
                  "with --eval-metrics)\n")
       continue
     last = steps[-1]
@@ -225,14 +261,69 @@ def progress(*directories: str) -> str:
     budgets = [float(r["total_steps"]) for r in rows if r.get("total_steps")]
     of = f" of {max(budgets) / 1e6:.1f} M" if budgets else ""  # runs before blx logged it: none
     state = ("finished: its final evaluation, eval.json, is the row's verdict (--compare)"
-             if os.path.exists(os.path.join(run_dir, "eval.json")) else "under training")
-    out += [f"{run_dir}: {spec.objective} on {spec.env}, {state}; its last evaluation every seed "
-            f"reached, at {last / 1e6:.1f} M{of} env steps per seed:", ""]
-    out += VERDICT_HEADER + verdicts(dict(objective=spec.objective, env=spec.env,
-                                          per_seed=per_seed))
-    out += [""] + ablations.time_to_paper({spec.objective: (spec.objective, rows)}, spec.env,
+             if finished else "under training")
+    out += [f"{name}: {objective} on {env}, {state}; its last evaluation every seed reached, at "
+            f"{last / 1e6:.1f} M{of} env steps per seed:", ""]
+    out += VERDICT_HEADER + verdicts(dict(objective=objective, env=env, per_seed=per_seed))
+    out += [""] + ablations.time_to_paper({objective: (objective, rows)}, env,
                                           tuple(k for k in keys if k in ablations.BETTER)) + [""]
   return "\n".join(out)
+
+
+def draw_progress(path: str, *directories: str) -> list[str]:
+  """``path``, a PNG: a row of panels per run with a paper row (``logged``), one per metric of the
+  paper's table, each the run's curve (mean ± std over seeds, from ``metrics.csv``) over its whole
+  budget of env steps, beside the paper's final value (mean ± std): how far a row has come, and
+  where it stands against the paper. Returns the panels' titles, row by row."""
+  import matplotlib
+  matplotlib.use("Agg")
+  import matplotlib.pyplot as plt
+  import ablations
+  from blx.experiments import plots
+  panels = []
+  for name, config, rows, finished in logged(*directories):
+    if isinstance(config, str):
+      continue
+    env, objective = config["env"], config["objective"]
+    curves = [c for c in _paper_curves(rows, env, objective) if c[-1][0]]
+    if curves:
+      budgets = [float(r["total_steps"]) for r in rows if r.get("total_steps")]
+      base = os.path.basename(name)
+      title = f"{env} {objective}" + ("" if base in (objective, f"objective={objective}")
+                                      else f" ({base})")
+      panels.append((title + ("" if finished else ", under training"),
+                     max(budgets, default=0.0), curves))
+  if not panels:
+    raise ValueError(f"nothing to draw under {', '.join(directories)}: no run there logged the "
+                     "paper's metrics of a row of its tables (train with --eval-metrics)")
+  titles = []
+  columns = max(len(curves) for _, _, curves in panels)
+  fig, axes = plt.subplots(len(panels), columns, figsize=(max(5.2 * columns, 7.0),
+                                                          3.2 * len(panels) + 0.6),
+                           squeeze=False, layout="constrained")
+  for row_axes, (title, budget, curves) in zip(axes, panels):
+    for ax, (key, mean, std, window, (steps, m, d)) in zip(row_axes, curves):
+      x = [s / 1e6 for s in steps]
+      ax.plot(x, m, "-", color="C0", label="blx (mean ± std over seeds)")
+      ax.fill_between(x, [a - b for a, b in zip(m, d)], [a + b for a, b in zip(m, d)],
+                      color="C0", alpha=0.2)
+      ax.axhline(mean, color="C3", linestyle="--", label="the paper's final value (mean ± std)")
+      ax.axhspan(mean - std, mean + std, color="C3", alpha=0.1)
+      ax.set_xlim(0, max(budget, steps[-1]) / 1e6 * 1.02)
+      titles.append(f"{title}; {window}")
+      ax.set_title(titles[-1], fontsize=9)
+      ax.set_ylabel(ablations.LABELS.get(key, key), fontsize=8)
+      ax.set_xlabel("env steps per seed (millions)")
+      plots.value_axis(ax, key)
+      ax.grid(alpha=0.3)
+    for ax in row_axes[len(curves):]:
+      ax.axis("off")
+  axes[0][0].legend(fontsize=7, loc="best")
+  fig.suptitle(textwrap.fill("The paper's rows during training: blx's curves against the "
+                             "paper's final values", 70 if columns == 1 else 120), fontsize=10)
+  fig.savefig(path, dpi=110)
+  plt.close(fig)
+  return titles
 
 
 def paper_steps(env: str) -> int:
@@ -314,15 +405,23 @@ def main():
   parser.add_argument("--progress", nargs="+", default=None, metavar="DIR",
                       help="only print where the runs under DIR stand during training (their "
                            "metrics.csv, logged with --eval-metrics) against the paper")
+  parser.add_argument("--plot", default=None, metavar="PNG",
+                      help="with --progress: also draw each run's curves beside the paper's "
+                           "final values into PNG")
   args = parser.parse_args()
   if args.compare and args.progress:
     parser.error("--compare and --progress: give one (the final verdicts, or the rows' progress)")
   if args.compare:
     print(compare(*args.compare))
     return
+  if args.plot and not args.progress:
+    parser.error("--plot draws the runs of --progress: give --progress DIR ... with it")
   if args.progress:
     try:
       print(progress(*args.progress))
+      if args.plot:
+        draw_progress(args.plot, *args.progress)
+        print(f"wrote {args.plot}")
     except ValueError as e:
       parser.error(f"--progress: {e}")
     return

@@ -235,9 +235,13 @@ def test_progress_names_runs_it_cannot_read_against_the_paper(tmp_path, monkeypa
            seeds=(0, 1))
   (tmp_path / "loose").mkdir()
   (tmp_path / "loose" / "metrics.csv").write_text("seed,env_steps\n0,1\n")
+  (tmp_path / "odd").mkdir()
+  (tmp_path / "odd" / "metrics.csv").write_text("seed,env_steps\n0,1\n")
+  (tmp_path / "odd" / "config.json").write_text("[1, 2]")
   text = paper_tables.progress(str(tmp_path))
+  assert "odd: passed over: " in text and "not a blx run config (it names no env and" in text
   assert "task on ant_push has no row in the paper's tables" in text
-  assert "loose: passed over:" in text and "not a blx run directory (no config.json)" in text
+  assert "loose: passed over: no config.json beside its metrics.csv" in text
   assert ("no evaluation with the paper's metrics in its metrics.csv (train with --eval-metrics)"
           in text)
   with pytest.raises(ValueError, match="no metrics.csv under .*empty"):
@@ -249,3 +253,33 @@ def test_progress_names_runs_it_cannot_read_against_the_paper(tmp_path, monkeypa
     with pytest.raises(SystemExit):
       paper_tables.main()
     assert message in capsys.readouterr().err
+
+
+def test_progress_reads_committed_rows_and_draws_each_against_the_paper(tmp_path, monkeypatch):
+  # A committed row (as under benchmarks/paper/): NAME_metrics.csv beside NAME_config.json and
+  # NAME_eval.json; MI-max logs Braxlines' window for MI and H(s), not for LGR.
+  rows = tmp_path / "brax_halfcheetah"
+  run = _run_dir(rows / "tmp", "diayn", "halfcheetah", [
+      (1e6, 10.0, {"eval/mi": [0.5, 0.7], "eval/mi_braxlines": [0.6, 0.8],
+                   "eval/entropy": [5.0, 5.2], "eval/entropy_braxlines": [5.1, 5.3],
+                   "eval/lgr": [2.0, 2.2]})], seeds=(0, 1))
+  for name in ("config.json", "metrics.csv"):
+    (run / name).rename(rows / f"diayn_{name}")
+  (rows / "diayn_eval.json").write_text("{}")
+  _run_dir(tmp_path / "hc_gail" / "dmin" / "objective=gail", "gail", "halfcheetah",
+           [(1e6, 10.0, {"eval/energy_distance": [0.4, 0.6]})], seeds=(0, 1))
+  _run_dir(tmp_path / "push", "task", "ant_push", [(1e6, 10.0, {"eval/episode_score": [1, 2]})],
+           seeds=(0, 1))
+  text = paper_tables.progress(str(tmp_path))
+  assert f"{rows / 'diayn'}: diayn on halfcheetah, finished" in text
+  assert "| halfcheetah | diayn | eval/mi (Braxlines' window) | 0.700 ± 0.100 (2) |" in text
+  png = tmp_path / "progress.png"
+  titles = paper_tables.draw_progress(str(png), str(tmp_path))
+  assert titles == ["halfcheetah diayn; Braxlines' window"] * 2 + [
+      "halfcheetah diayn; blx's window", "halfcheetah gail, under training; blx's window"]
+  assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+  with pytest.raises(ValueError, match="nothing to draw under .*push"):
+    paper_tables.draw_progress(str(png), str(tmp_path / "push"))
+  monkeypatch.setattr("sys.argv", ["paper_tables.py", "--plot", str(png)])
+  with pytest.raises(SystemExit):
+    paper_tables.main()
