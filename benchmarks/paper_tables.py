@@ -228,11 +228,15 @@ def _paper_curves(rows: list[dict], env: str, objective: str):
   return out
 
 
+ONE_MODE = 0.1  # a mode balance below it: the least visited mode has under 5 % of the states
+
+
 def progress(*directories: str) -> str:
   """Where rows under training stand: for every run under the directories (``logged``) that logged
   the paper's metrics during training (``--eval-metrics``), the verdicts of its last evaluation
   that every seed reached, against the paper (as ``verdicts``), and the env steps and wall time at
-  which its mean over seeds first reached the paper's mean (``ablations.time_to_paper``). A run
+  which its mean over seeds first reached the paper's mean (``ablations.time_to_paper``); for a
+  D-min run, the mode balance there and how many seeds are on one mode (``ONE_MODE``). A run
   without a paper row, without those metrics, or without its config is named and passed over. A
   row's parts trained in several programs (``--first-seed``) are each their own run here."""
   import ablations  # its curves; it imports this module, so not at the top
@@ -265,6 +269,12 @@ def progress(*directories: str) -> str:
     out += [f"{name}: {objective} on {env}, {state}; its last evaluation every seed reached, at "
             f"{last / 1e6:.1f} M{of} env steps per seed:", ""]
     out += VERDICT_HEADER + verdicts(dict(objective=objective, env=env, per_seed=per_seed))
+    balance = ablations.by_step(ablations.with_mode_balance(rows), ablations.BALANCE).get(last)
+    if balance:  # D-min against a target of several modes
+      mu, sd = mean_std(list(balance.values()))
+      one = sum(b < ONE_MODE for b in balance.values())
+      out += ["", f"Mode balance there (1: an even split; 0: one mode): {mu:.2f} ± {sd:.2f}; "
+                  f"{one} of {len(balance)} seeds on one mode (balance below {ONE_MODE:g})."]
     out += [""] + ablations.time_to_paper({objective: (objective, rows)}, env,
                                           tuple(k for k in keys if k in ablations.BETTER)) + [""]
   return "\n".join(out)

@@ -214,7 +214,9 @@ def test_progress_reads_a_row_under_training_at_its_last_evaluation_every_seed_r
   key = "eval/energy_distance"  # HalfCheetah GAIL: the paper's 0.516 ± 0.640, lower is better
   run = _run_dir(tmp_path / "hc_gail" / "dmin" / "objective=gail", "gail", "halfcheetah", [
       (1e6, 10.0, {key: [1.0, 1.2, 1.4]}),
-      (2e6, 20.0, {key: [0.4, 0.5, 0.6]}),  # its mean, 0.5, first reaches the paper's 0.516
+      # its mean, 0.5, first reaches the paper's 0.516; seed 0 is on the first mode only
+      (2e6, 20.0, {key: [0.4, 0.5, 0.6], "eval/mode_share/0": [1.0, 0.5, 0.7],
+                   "eval/mode_share/1": [0.0, 0.5, 0.3]}),
       (3e6, 30.0, {key: [0.9, 1.0]})])  # seed 2 not yet evaluated: not the last evaluation
   text = paper_tables.progress(str(tmp_path / "hc_gail"))
   assert f"{run}: gail on halfcheetah, under training" in text
@@ -223,6 +225,8 @@ def test_progress_reads_a_row_under_training_at_its_last_evaluation_every_seed_r
   assert (f"| halfcheetah | gail | -eval/energy_distance | -0.500 ± 0.082 (3) | -0.516 ± 0.640 "
           f"| +0.07 | {p:.3f} | yes |") in text
   assert "| gail | eval/energy_distance | blx's | 0.516 | 2.00 M | 20 s |" in text
+  # balances 0, 1 and 0.6 (twice the least share)
+  assert "Mode balance there (1: an even split; 0: one mode): 0.53 ± 0.41; 1 of 3 seeds" in text
   (run / "eval.json").write_text("{}")
   assert "finished: its final evaluation, eval.json, is the row's verdict" in (
       paper_tables.progress(str(tmp_path)))
