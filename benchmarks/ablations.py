@@ -454,6 +454,14 @@ def paper_value(env: str, objective: str, key: str) -> float | None:
   return -row[f"-{key}"][0] if f"-{key}" in row else None
 
 
+def paper_window_curve(rows: list[dict], key: str) -> tuple[str, tuple[list, list, list]]:
+  """``(window, curve(rows, ...))`` of ``key``: in Braxlines' window (``KEY_braxlines``, where the
+  paper's numbers were taken) where the run logged it, else in blx's; ``window`` names which
+  ("Braxlines'" or "blx's")."""
+  braxlines = curve(rows, f"{key}_braxlines")
+  return ("Braxlines'", braxlines) if braxlines[0] else ("blx's", curve(rows, key))
+
+
 def time_to_paper(curves: dict[str, tuple[str, list[dict]]], env: str, metrics: tuple[str, ...],
                   devices: dict[str, str] | None = None) -> list[str]:
   """Markdown rows: per metric of ``BETTER`` and arm whose objective the paper reports on ``env``,
@@ -468,9 +476,7 @@ def time_to_paper(curves: dict[str, tuple[str, list[dict]]], env: str, metrics: 
       target = paper_value(env, objective, key)
       if target is None:
         continue
-      (steps, mean, _), window = curve(arm_rows, f"{key}_braxlines"), "Braxlines'"
-      if not steps:
-        (steps, mean, _), window = curve(arm_rows, key), "blx's"
+      window, (steps, mean, _) = paper_window_curve(arm_rows, key)
       if not steps:
         continue
       cells = _reached(arm_rows, steps, mean, BETTER[key], target)

@@ -221,11 +221,16 @@ def _paper_curves(rows: list[dict], env: str, objective: str):
   out = []
   for key, (mean, std) in PAPER.get(env, {}).get(objective, {}).items():
     sign, key = (-1.0, key[1:]) if key.startswith("-") else (1.0, key)
-    window, curve = "Braxlines' window", ablations.curve(rows, f"{key}_braxlines")
-    if not curve[0]:
-      window, curve = "blx's window", ablations.curve(rows, key)
-    out.append((key, sign * mean, std, window, curve))
+    window, curve = ablations.paper_window_curve(rows, key)
+    out.append((key, sign * mean, std, f"{window} window", curve))
   return out
+
+
+def _budget(rows: list[dict]) -> float | None:
+  """A run's env steps per seed to train, from its metrics.csv rows (``total_steps``); None for a
+  run from before blx logged it."""
+  budgets = [float(r["total_steps"]) for r in rows if r.get("total_steps")]
+  return max(budgets) if budgets else None
 
 
 ONE_MODE = 0.1  # a mode balance below it: the least visited mode has under 5 % of the states
@@ -262,8 +267,8 @@ def progress(*directories: str) -> str:
     seeds = sorted(values[keys[0]][last])
     per_seed = {key: [by[last][s] for s in seeds] for key, by in values.items()
                 if set(by.get(last, {})) == set(seeds)}
-    budgets = [float(r["total_steps"]) for r in rows if r.get("total_steps")]
-    of = f" of {max(budgets) / 1e6:.1f} M" if budgets else ""  # runs before blx logged it: none
+    budget = _budget(rows)
+    of = "" if budget is None else f" of {budget / 1e6:.1f} M"
     state = ("finished: its final evaluation, eval.json, is the row's verdict (--compare)"
              if finished else "under training")
     out += [f"{name}: {objective} on {env}, {state}; its last evaluation every seed reached, at "
@@ -297,12 +302,11 @@ def draw_progress(path: str, *directories: str) -> list[str]:
     env, objective = config["env"], config["objective"]
     curves = [c for c in _paper_curves(rows, env, objective) if c[-1][0]]
     if curves:
-      budgets = [float(r["total_steps"]) for r in rows if r.get("total_steps")]
       base = os.path.basename(name)
       title = f"{env} {objective}" + ("" if base in (objective, f"objective={objective}")
                                       else f" ({base})")
       panels.append((title + ("" if finished else ", under training"),
-                     max(budgets, default=0.0), curves))
+                     _budget(rows) or 0.0, curves))
   if not panels:
     raise ValueError(f"nothing to draw under {', '.join(directories)}: no run there logged the "
                      "paper's metrics of a row of its tables (train with --eval-metrics)")

@@ -33,6 +33,7 @@ import common  # noqa: E402
 
 from blx import metrics  # noqa: E402
 from blx.experiments import runs  # noqa: E402
+from blx.objectives.specs import DminSpec  # noqa: E402
 
 POSTURES = ("upright", "on its back")
 
@@ -58,8 +59,7 @@ def per_episode(feature: np.ndarray, up: np.ndarray, means: np.ndarray | None) -
                "feature": f.mean(0).tolist(), "feature_std": f.std(0).tolist()}
     if means is not None:
       nearest = np.argmin(((f[:, None, :] - means[None]) ** 2).sum(-1), axis=1)
-      episode["mode_share"] = np.bincount(nearest, minlength=len(means)).astype(float)
-      episode["mode_share"] = (episode["mode_share"] / len(f)).tolist()
+      episode["mode_share"] = (np.bincount(nearest, minlength=len(means)) / len(f)).tolist()
     out.append(episode)
   return out
 
@@ -90,7 +90,7 @@ def main():
     run = runs.load_run(args.run)
   except runs.RunError as e:
     parser.error(str(e))
-  if getattr(run.objective.spec, "target", None) is None:
+  if not isinstance(run.objective.spec, DminSpec):
     parser.error(f"{args.run}: {run.spec.objective} is not a D-min objective (it has no target); "
                  "posture.py reads GAIL, GAIL2, AIRL, FAIRL and MLE runs")
   try:
@@ -100,13 +100,14 @@ def main():
   params, keys = common.picked_seeds(run, picked, args.key_seed)
   target = run.objective.spec.target
   means = None if target.means is None else np.asarray(target.means, np.float64)
-  roll = jax.jit(lambda p, k: episodes(run, p, k, args.episodes, args.deterministic))
+  # every picked seed in one program, as the other analyses: [seeds, episodes, T, ...]
+  features, ups = jax.jit(jax.vmap(lambda p, k: episodes(run, p, k, args.episodes,
+                                                         args.deterministic)))(params, keys)
   result = {"run": args.run, "episodes": args.episodes, "deterministic": args.deterministic,
             "per_seed": {}}
-  for i, position in enumerate(picked):
-    feature, up = roll(jax.tree.map(lambda x: x[i], params), keys[i])
+  for position, feature, up in zip(picked, np.asarray(features), np.asarray(ups)):
     seed = run.spec.seeds[position]
-    result["per_seed"][str(seed)] = per_episode(np.asarray(feature), np.asarray(up), means)
+    result["per_seed"][str(seed)] = per_episode(feature, up, means)
     backs = sum(e["upside_down"] > 0.5 for e in result["per_seed"][str(seed)])
     print(f"seed {seed}: {backs} of {args.episodes} episodes on its back", flush=True)
   result["summary"] = summary(list(result["per_seed"].values()))
