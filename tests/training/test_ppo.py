@@ -150,7 +150,8 @@ def test_two_devices_match_one_device(tmp_path):
   # are the same arithmetic, so only the order of floating-point reductions differs.
   one = _run("dp", str(tmp_path / "one.npz"))
   two = _run("dp", str(tmp_path / "two.npz"),
-             env={"XLA_FLAGS": "--xla_force_host_platform_device_count=2"})
+             env={"XLA_FLAGS": f"{os.environ.get('XLA_FLAGS', '')} "
+                  "--xla_force_host_platform_device_count=2"})
   assert one.returncode == 0, one.stderr[-3000:]
   assert two.returncode == 0, two.stderr[-3000:]
   assert int(np.load(tmp_path / "two.npz")["devices"]) == 2
