@@ -25,10 +25,13 @@ FAST_COMPILE = "--xla_backend_optimization_level=0 --xla_cpu_use_thunk_runtime=f
 def _xla_flags() -> str:
   """``SERIAL`` with ``FAST_COMPILE`` where this jax's XLA accepts it, else ``SERIAL``."""
   flags = f"{SERIAL} {FAST_COMPILE}"
-  probe = subprocess.run(
-      [sys.executable, "-c", "import jax; jax.numpy.zeros(1).block_until_ready()"],
-      env={**os.environ, "XLA_FLAGS": flags, "JAX_PLATFORMS": "cpu"}, capture_output=True,
-      timeout=300)
+  try:
+    probe = subprocess.run(
+        [sys.executable, "-c", "import jax; jax.numpy.zeros(1).block_until_ready()"],
+        env={**os.environ, "XLA_FLAGS": flags, "JAX_PLATFORMS": "cpu"}, capture_output=True,
+        timeout=300)
+  except subprocess.TimeoutExpired:
+    return SERIAL
   return flags if probe.returncode == 0 else SERIAL
 
 
