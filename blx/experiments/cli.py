@@ -225,11 +225,15 @@ def cmd_eval(args) -> int:
   from blx.experiments import runs
   # the keys are checked before the run is loaded and compiled
   key_seeds = None if args.key_seeds is None else _key_seeds(args.key_seeds)
+  if args.metrics_only and key_seeds is None:
+    raise UsageError("--metrics-only applies with --key-seeds: eval.json always holds every "
+                     "metric")
   run = runs.load_run(args.dir)
   if key_seeds is None:
     result = runs.write_eval(run)
   else:
-    result = across_keys(key_seeds, runs.evaluate_run_keys(run, key_seeds))
+    result = across_keys(key_seeds, runs.evaluate_run_keys(run, key_seeds,
+                                                           metrics_only=args.metrics_only))
     print(f"[blx] evaluated with evaluation keys {key_seeds}; eval.json (key 0) is left as it "
           "was", file=sys.stderr)
   if args.json:
@@ -432,6 +436,10 @@ def _parser() -> argparse.ArgumentParser:
   p.add_argument("--key-seeds", default=None, metavar="K,K,...",
                  help="evaluate once per evaluation key (e.g. 0,1,2) and report how far each "
                       "metric moves with the evaluation's own sampling; eval.json is not written")
+  p.add_argument("--metrics-only", action="store_true",
+                 help="with --key-seeds: the objective's metrics alone (MI, H(s), LGR, energy "
+                      "distance, ...), without the trainer's return episodes (num_eval_envs per "
+                      "seed), which cost most of an evaluation on a CPU")
   p.set_defaults(fn=cmd_eval)
 
   p = sub.add_parser("render", help="a video of rollouts (one per skill for MI-max)")

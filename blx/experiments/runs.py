@@ -354,17 +354,27 @@ def evaluate_run(run: Run, *, key_seed: int = 0) -> dict[str, list[float]]:
   return evaluate_run_keys(run, (key_seed,))[0]
 
 
-def evaluate_run_keys(run: Run, key_seeds: Sequence[int]) -> list[dict[str, list[float]]]:
+def evaluate_run_keys(run: Run, key_seeds: Sequence[int], *,
+                      metrics_only: bool = False) -> list[dict[str, list[float]]]:
   """:func:`evaluate_run` once per evaluation key seed in ``key_seeds``, compiled once: how much
   of a final number is the evaluation's own sampling rather than the policy (e.g. a policy that
-  picks one of the target's modes per episode, scored on 10 episodes)."""
+  picks one of the target's modes per episode, scored on 10 episodes). ``metrics_only`` keeps the
+  objective's evaluator alone (the same values under the same keys), without the trainer's
+  ``num_eval_envs`` return episodes per seed, most of an evaluation's cost on a CPU; it needs an
+  objective with an evaluator."""
   trainer = training.make_trainer(run.env, run.objective, run.config)
   evaluator = evaluator_for(run.env, run.objective)
+  if metrics_only and evaluator is None:
+    raise ValueError(f"metrics_only (blx eval --metrics-only): objective {run.objective.name!r} "
+                     "has no evaluator, so its only metrics are the returns this leaves out; "
+                     "evaluate it without metrics_only")
 
   def one(params, key):
-    kept = ("eval/episode_reward", "eval/episode_score", "eval/episode_length")
-    out = {k: v for k, v in trainer.evaluate(params, key).items()  # with per-agent totals
-           if k in kept or (k.count("/") == 2 and k.rsplit("/", 1)[0] in kept)}
+    out = {}
+    if not metrics_only:
+      kept = ("eval/episode_reward", "eval/episode_score", "eval/episode_length")
+      out = {k: v for k, v in trainer.evaluate(params, key).items()  # with per-agent totals
+             if k in kept or (k.count("/") == 2 and k.rsplit("/", 1)[0] in kept)}
     if evaluator is not None:
       out.update(evaluator(trainer.policy, params, key))
     return out

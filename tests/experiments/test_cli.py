@@ -88,6 +88,25 @@ def test_eval_with_several_keys_reports_the_evaluations_own_noise_and_keeps_eval
   assert any(line.startswith("eval/lgr ") and "per seed ±" in line for line in lines)
 
 
+def test_eval_metrics_only_gives_the_evaluators_values_without_the_return_episodes(trained,
+                                                                                    capsys):
+  assert cli.main(["eval", trained, "--key-seeds", "0", "--metrics-only", "--json"]) == 0
+  per_seed = json.loads(capsys.readouterr().out)["per_key"][0]["per_seed"]
+  full = json.load(open(os.path.join(trained, "eval.json")))["per_seed"]  # key 0, everything
+  assert "eval/episode_reward" in full and "eval/episode_reward" not in per_seed
+  assert {"eval/mi", "eval/entropy", "eval/lgr"} <= set(per_seed)
+  for metric, values in per_seed.items():
+    np.testing.assert_allclose(values, full[metric], rtol=1e-5, atol=1e-6, err_msg=metric)
+
+
+def test_eval_metrics_only_refuses_an_objective_without_an_evaluator(trained, monkeypatch):
+  from blx.experiments import runs
+  run = runs.load_run(trained)
+  monkeypatch.setattr(runs, "evaluator_for", lambda env, objective: None)
+  with pytest.raises(ValueError, match="objective 'diayn' has no evaluator, so its only metrics"):
+    runs.evaluate_run_keys(run, [0], metrics_only=True)
+
+
 def test_load_run_rebuilds_env_objective_and_params(trained):
   import blx
   run = blx.load_run(trained)
@@ -296,6 +315,7 @@ def test_a_task_sweeps_table_gives_the_episode_length_beside_the_score(tmp_path)
     (["eval", "anyrun", "--key-seeds", "0,x"], "--key-seeds '0,x': give distinct ints in 0..2**31"),
     (["eval", "anyrun", "--key-seeds", "1,1"], "--key-seeds '1,1': give distinct ints"),
     (["eval", "anyrun", "--key-seeds", "-1"], "--key-seeds '-1': give distinct ints"),
+    (["eval", "anyrun", "--metrics-only"], "--metrics-only applies with --key-seeds"),
 ])
 def test_bad_input_is_one_line_and_exit_status_2(argv, message, capsys):
   assert cli.main(argv) == 2
