@@ -30,10 +30,10 @@ def _xla_flags() -> str:
         [sys.executable, "-c", "import jax; jax.numpy.zeros(1).block_until_ready()"],
         env={**os.environ, "XLA_FLAGS": flags, "JAX_PLATFORMS": "cpu"}, capture_output=True,
         timeout=300)
+    if probe.returncode == 0:
+      return flags
   except subprocess.TimeoutExpired:
-    probe = None
-  if probe is not None and probe.returncode == 0:
-    return flags
+    pass
   print(f"tests/conftest.py: this jax's XLA did not start with {FAST_COMPILE!r}; the tests run "
         f"under {SERIAL!r} alone (slower compiles, the same tests)", file=sys.stderr)
   return SERIAL
