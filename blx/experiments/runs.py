@@ -6,7 +6,7 @@ A run directory holds:
   full desc, objective name and options, PPO config, seeds, evaluation settings);
 * ``checkpoint/``: the training state of every seed (``blx.training.checkpoint``);
 * ``metrics.csv``: one row per evaluation and seed, rewritten after every evaluation;
-* ``eval.json``: the final metrics of ``blx eval``;
+* ``eval.json``: the final metrics of ``blx eval``, with the machine that evaluated them;
 * ``provenance.json``: where each process that trained the run ran (device, versions) and over
   which env steps (``read_provenance``), so that wall times are compared on like machines;
 * ``plots/``: ``training_curves.png``, and ``skills.png`` (each skill's cloud in the feature space)
@@ -457,9 +457,17 @@ def train_run(spec: RunSpec, directory: str, *, resume: bool = False, progress=T
 
 
 def write_eval(run: Run) -> dict:
-  """Evaluates every seed, writes ``eval.json`` (per seed and mean/std) and returns it."""
+  """Evaluates every seed, writes ``eval.json`` (per seed and mean/std) and returns it.
+
+  ``evaluated_on`` records the machine that evaluated (when, device, versions), which need not be
+  the one that trained: a run's final evaluation can be taken up on another machine by ``blx
+  eval``, and the episodes' physics differ in their last bits between CPU and GPU."""
   values = evaluate_run(run)
+  machine = this_machine()
   out = {"per_seed": values, "summary": summarise(values), "seeds": list(run.spec.seeds),
-         "objective": run.spec.objective, "env": run.spec.env}
+         "objective": run.spec.objective, "env": run.spec.env,
+         "evaluated_on": {"date": machine.started, "device": machine.device,
+                          "platform": machine.platform, "device_count": machine.device_count,
+                          "versions": machine.versions}}
   _write_json(os.path.join(run.directory, "eval.json"), out)
   return out

@@ -11,6 +11,7 @@ import shutil
 import subprocess
 import sys
 
+import jax
 import numpy as np
 import pytest
 
@@ -39,6 +40,11 @@ def test_train_writes_a_complete_run_directory(trained):
   config = json.load(open(os.path.join(trained, "config.json")))
   assert config["env"] == "point" and config["objective"] == "diayn"
   assert config["objective_options"] == {"num_skills": 3}
+  # eval.json names the machine that evaluated it (here the one that trained it)
+  machine = json.load(open(os.path.join(trained, "eval.json")))["evaluated_on"]
+  trainer = json.load(open(os.path.join(trained, "provenance.json")))["segments"][-1]
+  assert machine["platform"] == jax.devices()[0].platform == trainer["platform"]
+  assert machine["versions"] == trainer["versions"] and machine["date"] >= trainer["started"]
   assert config["desc"]["components"]["agent1"]["component"] == "point"
   rows = list(csv.DictReader(open(os.path.join(trained, "metrics.csv"))))
   # 2 evaluations x 2 seeds, with finite rewards.
