@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import os
 import re
+from collections.abc import Sequence
 
 import jax
 import jax.numpy as jnp
@@ -95,12 +96,25 @@ def curve_ylabel(key: str) -> str:
   return YLABELS.get(key, key.rsplit("/", 1)[-1].replace("_", " "))
 
 
-def band_caption(num_seeds: int) -> str:
-  """What the line and the band of a training curve are."""
+# The panels drawn from the trainer's own evaluation episodes (deterministic actions); the other
+# eval/* panels (MI, H(s), LGR, energy distance, mode shares) come from the objective's evaluator
+# (``--eval-metrics``), whose episodes sample their actions, as Braxlines' evaluation does.
+TRAINER_EPISODES = ("eval/episode_reward", "eval/episode_score", "eval/episode_length")
+
+
+def band_caption(num_seeds: int, keys: Sequence[str] = ()) -> str:
+  """What the line and the band of a training curve are, and how the panels of ``keys`` were
+  measured: the trainer's deterministic episodes, the evaluator's sampled ones, or training."""
   spread = (f"line: mean over {num_seeds} seeds, band: lowest to highest seed" if num_seeds > 1
             else "one seed")
-  return (f"{spread}. eval/*: deterministic evaluation episodes after each chunk; loss/*, disc/*, "
-          "policy/*: means over the chunk's training iterations.")
+  sampled = [k for k in keys if k.startswith("eval/") and k not in TRAINER_EPISODES]
+  if not sampled:
+    return (f"{spread}. eval/*: deterministic evaluation episodes after each chunk; loss/*, "
+            "disc/*, policy/*: means over the chunk's training iterations.")
+  return (f"{spread}. eval/episode_reward, _score, _length: the trainer's deterministic episodes "
+          "after each chunk; the other eval/*: the objective's evaluator after each chunk,\n"
+          "actions sampled (as Braxlines' evaluation); loss/*, disc/*, policy/*: means over the "
+          "chunk's training iterations.")
 
 
 def training_curves(history: list[dict], path: str, *, titles: dict[str, str] | None = None,
@@ -138,8 +152,10 @@ def training_curves(history: list[dict], path: str, *, titles: dict[str, str] | 
   seeds = len(np.atleast_1d(history[0][keys[0]])) if history and keys else 1
   if title:
     fig.suptitle(title, fontsize=10)
-  fig.text(0.5, 0.005, band_caption(seeds), ha="center", va="bottom", fontsize=7, color="0.3")
-  fig.tight_layout(rect=(0, 0.03, 1, 1))
+  caption = band_caption(seeds, keys)
+  fig.text(0.5, 0.005, caption, ha="center", va="bottom", fontsize=7, color="0.3")
+  # room below the panels for the caption's lines (about 0.12 inch each)
+  fig.tight_layout(rect=(0, (0.1 + 0.12 * (1 + caption.count("\n"))) / (3.0 * rows), 1, 1))
   fig.savefig(path, dpi=90)
   plt.close(fig)
   return keys

@@ -26,6 +26,12 @@ def test_curve_panels_say_what_they_measure_and_what_the_band_is(tmp_path):
   assert plots.curve_ylabel("train/some_new_thing") == "some new thing"  # unknown keys stay legible
   assert plots.band_caption(10).startswith("line: mean over 10 seeds, band: lowest to highest seed")
   assert plots.band_caption(1).startswith("one seed")
+  # the paper's metrics come from the evaluator's sampled episodes, the returns from the trainer's
+  # deterministic ones: the caption tells them apart where both are drawn
+  both = plots.band_caption(10, ["eval/episode_reward", "eval/energy_distance", "loss/disc"])
+  assert "trainer's deterministic episodes" in both and "actions sampled" in both
+  returns_only = plots.band_caption(10, ["eval/episode_reward", "eval/episode_length"])
+  assert "deterministic" in returns_only and "sampled" not in returns_only
   assert plots.curve_ylabel("eval/episode_length") == "env steps per episode"
   history = [{"env_steps": 1e6 * (i + 1), "eval/mi": [0.1 * i, 0.2 * i], "loss/policy": [1.0, 2.0],
               "eval/episode_length": [1000.0, 240.0], "eval/episode_score": [-1e3, -8e2],
