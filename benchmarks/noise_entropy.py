@@ -1,6 +1,7 @@
 """How much of the ant's H(s) is action noise: H(s) of a policy that only jitters in place.
 
     python benchmarks/noise_entropy.py [--env ant] [--sigmas 0.7,0.3,0.1,0.03,0.01] [--episodes 8]
+                                       [--indices 13,14] [--env-edits JSON]
 
 Each arm runs a policy whose action is ``clip(sigma * N(0, I), -1, 1)`` (no mean, so no skill and
 no intent) for whole episodes of the env as registered, with the paper's evaluation protocol for
@@ -8,12 +9,15 @@ H(s): the last 500 steps of every episode, the xy velocity (obs 13, 14), the 1-D
 entropy with 1000 bins over [-5, 5] averaged over the two dims (``metrics.particle``). It tells what
 H(s) a skill that holds still is scored at, as a function of how much action noise its sampled
 actions carry: a reading for the DIAYN_FULL row, whose skills are poses (RESULTS, session 8).
-Runs on CPU in a few minutes.
+Runs on CPU in a few minutes. ``--env-edits`` edits the env's desc as a row's ``--env-edits`` does
+(e.g. the HalfCheetah rows' step, ``'{"global_options.timestep": 0.00625,
+"global_options.substeps": 8}'``, with ``--indices 11``, the x velocity).
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 import time
 
 import jax
@@ -32,8 +36,16 @@ def main():
   parser.add_argument("--indices", default="13,14")
   parser.add_argument("--scale", type=float, default=5.0)
   parser.add_argument("--last-steps", type=int, default=500)
+  parser.add_argument("--env-edits", default=None, metavar="JSON",
+                      help="edits of the env's desc (dotted paths), as paper_tables.py's")
   args = parser.parse_args()
-  env = envs.create(args.env)
+  try:
+    edits = json.loads(args.env_edits) if args.env_edits else None
+  except json.JSONDecodeError as e:
+    parser.error(f"--env-edits: not JSON ({e}); e.g. '{{\"global_options.substeps\": 8}}'")
+  if edits is not None and not isinstance(edits, dict):
+    parser.error(f"--env-edits: a JSON object of dotted paths to values, got {args.env_edits}")
+  env = envs.create(args.env, **({"edits": edits} if edits else {}))
   indices = np.asarray([int(i) for i in args.indices.split(",")])
 
   def jitter(sigma, obs, z, *, key, deterministic):
@@ -44,7 +56,7 @@ def main():
   run = jax.jit(lambda sigma, key: metrics.rollout(
       env, jitter, sigma, jnp.zeros((1, 0)), key, episodes_per_latent=args.episodes,
       conditions_policy=False))
-  print(f"env {args.env}, {args.episodes} episodes per arm, obs {indices.tolist()}, "
+  print(f"env {args.env}{f' with {edits}' if edits else ''}, {args.episodes} episodes per arm, obs {indices.tolist()}, "
         f"H over [-{args.scale}, {args.scale}] with 1000 bins, last {args.last_steps} steps")
   print("| action noise sigma | H(s) | std of velocity (m/s) | episode steps |")
   print("| ---: | ---: | ---: | ---: |")
