@@ -1,0 +1,59 @@
+"""benchmarks/action_noise.py: the spread of a policy's sampled actions about their mean, on
+stand-in policies whose noise is known."""
+
+import sys
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+from tests.experiments import load_benchmark
+
+action_noise = load_benchmark("action_noise")
+
+
+def _gaussian(params, obs, z, *, key, deterministic):
+  """Action mean ``params["mean"]`` in every dim; noise std ``params["std"]``, times the state's
+  latent where there is one (so each state has its own noise)."""
+  mean = jnp.full(obs.shape[:-1] + (3,), params["mean"])
+  if deterministic:
+    return mean
+  std = params["std"] * (z[..., :1] if z is not None else 1.0)
+  return mean + std * jax.random.normal(key, mean.shape)
+
+
+def test_the_std_of_the_draws_is_the_policys_noise_at_each_state():
+  obs = jnp.zeros((4, 5))
+  z = jnp.array([[0.5], [1.0], [2.0], [4.0]])
+  out = jax.jit(lambda k: action_noise.noise_at(_gaussian, {"mean": 0.0, "std": 0.05}, obs, z, k,
+                                                4000))(jax.random.PRNGKey(0))
+  np.testing.assert_allclose(out["action_std"], 0.05 * z[:, 0], rtol=0.04)
+  # |N(0, s)| has mean s * sqrt(2 / pi)
+  np.testing.assert_allclose(out["mean_abs_action"], 0.05 * z[:, 0] * np.sqrt(2 / np.pi),
+                             rtol=0.04)
+  assert out["action_std"].shape == (4,)
+
+
+def test_a_policy_without_latents_and_the_share_beyond_099():
+  # mean 0.98, std 0.01: a draw is beyond 0.99 one standard deviation above the mean, P = 0.159
+  out = action_noise.noise_at(_gaussian, {"mean": 0.98, "std": 0.01}, jnp.zeros((2, 5)), None,
+                              jax.random.PRNGKey(1), 20000)
+  np.testing.assert_allclose(out["saturated_share"], 0.1587, atol=0.01)
+  np.testing.assert_allclose(out["mean_abs_action"], 0.98, atol=1e-3)
+  # a policy that does not sample has no spread
+  still = action_noise.noise_at(_gaussian, {"mean": 0.3, "std": 0.0}, jnp.zeros((2, 5)), None,
+                                jax.random.PRNGKey(2), 8)
+  np.testing.assert_allclose(still["action_std"], 0.0, atol=1e-7)
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["--samples", "1"], "--samples 1: give 2 or more"),
+    (["--episodes", "0"], "--episodes 0: give 1 or more"),
+    ([], "no run directory at"),
+])
+def test_bad_input_is_named(monkeypatch, capsys, tmp_path, argv, message):
+  monkeypatch.setattr(sys, "argv", ["action_noise.py", str(tmp_path / "nothing"), *argv])
+  with pytest.raises(SystemExit) as exit_:
+    action_noise.main()
+  assert exit_.value.code == 2 and message in capsys.readouterr().err
