@@ -56,7 +56,8 @@ def main():
   run = jax.jit(lambda sigma, key: metrics.rollout(
       env, jitter, sigma, jnp.zeros((1, 0)), key, episodes_per_latent=args.episodes,
       conditions_policy=False))
-  print(f"env {args.env}{f' with {edits}' if edits else ''}, {args.episodes} episodes per arm, obs {indices.tolist()}, "
+  where = f"{args.env} with {edits}" if edits else args.env
+  print(f"env {where}, {args.episodes} episodes per arm, obs {indices.tolist()}, "
         f"H over [-{args.scale}, {args.scale}] with 1000 bins, last {args.last_steps} steps")
   print("| action noise sigma | H(s) | std of velocity (m/s) | episode steps |")
   print("| ---: | ---: | ---: | ---: |")

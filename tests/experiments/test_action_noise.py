@@ -2,12 +2,16 @@
 stand-in policies whose noise is known."""
 
 import sys
+from types import SimpleNamespace
 
 import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
 
+from blx import envs, objectives
+from blx.envs.env import State
+from blx.objectives.targets import Target
 from tests.experiments import load_benchmark
 
 action_noise = load_benchmark("action_noise")
@@ -45,6 +49,41 @@ def test_a_policy_without_latents_and_the_share_beyond_099():
   still = action_noise.noise_at(_gaussian, {"mean": 0.3, "std": 0.0}, jnp.zeros((2, 5)), None,
                                 jax.random.PRNGKey(2), 8)
   np.testing.assert_allclose(still["action_std"], 0.0, atol=1e-7)
+
+
+class _Counter:
+  """Observes its step count; actions do nothing."""
+
+  observation_size, action_size = 2, 3
+
+  def reset(self, key):
+    return State(data=None, obs=jnp.zeros(2), reward=jnp.zeros(()), done=jnp.zeros(()))
+
+  def step(self, state, action):
+    return state.replace(obs=state.obs + jnp.array([1.0, 0.0]))
+
+
+def _skill_noise(params, obs, z=None, *, key=None, deterministic=False):
+  """Noise std 0.1 for skill 0, 0.2 for skill 1, 0.3 for skill 2; 0.1 without a skill."""
+  mean = jnp.zeros(obs.shape[:-1] + (3,))
+  if deterministic:
+    return mean
+  std = 0.1 * (1.0 + (jnp.argmax(z, -1)[..., None] if z is not None else 0.0))
+  return mean + std * jax.random.normal(key, mean.shape)
+
+
+def test_a_seed_is_read_over_its_skills_evaluation_episodes_or_its_plain_ones():
+  env = envs.episode(_Counter(), 8)
+  skills = SimpleNamespace(env=env, policy=_skill_noise,
+                           objective=objectives.diayn(num_skills=3, obs_indices=(0,)))
+  out = jax.jit(lambda k: action_noise.seed_noise(skills, {}, k, 4, 3000))(jax.random.PRNGKey(0))
+  # every skill's one-hot, its states weighted alike: the mean of 0.1, 0.2 and 0.3
+  np.testing.assert_allclose(out["action_std"], 0.2, rtol=0.04)
+  target = Target(samples=jnp.zeros((2, 1)), log_prob=None, name="zero", means=None)
+  plain = SimpleNamespace(env=env, policy=_skill_noise,
+                          objective=objectives.gail(target=target, obs_indices=(0,)))
+  out = jax.jit(lambda k: action_noise.seed_noise(plain, {}, k, 4, 3000))(jax.random.PRNGKey(0))
+  np.testing.assert_allclose(out["action_std"], 0.1, rtol=0.04)
 
 
 @pytest.mark.parametrize("argv, message", [
