@@ -17,15 +17,19 @@ Runs on CPU in a few minutes. ``--env-edits`` edits the env's desc as a row's ``
 from __future__ import annotations
 
 import argparse
-import json
+import os
+import sys
 import time
 
 import jax
 import jax.numpy as jnp
 import numpy as np
 
-from blx import envs, metrics
-from blx.metrics import particle
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import paper_tables  # noqa: E402
+
+from blx import envs, metrics  # noqa: E402
+from blx.metrics import particle  # noqa: E402
 
 
 def main():
@@ -39,13 +43,17 @@ def main():
   parser.add_argument("--env-edits", default=None, metavar="JSON",
                       help="edits of the env's desc (dotted paths), as paper_tables.py's")
   args = parser.parse_args()
+  edits = None
+  if args.env_edits:
+    try:  # the parsing of paper_tables.py's --env-edits
+      edits = paper_tables.json_object(args.env_edits,
+                                       'env edits (e.g. {"global_options.substeps": 8})')
+    except ValueError as e:
+      parser.error(f"--env-edits: {e}")
   try:
-    edits = json.loads(args.env_edits) if args.env_edits else None
-  except json.JSONDecodeError as e:
-    parser.error(f"--env-edits: not JSON ({e}); e.g. '{{\"global_options.substeps\": 8}}'")
-  if edits is not None and not isinstance(edits, dict):
-    parser.error(f"--env-edits: a JSON object of dotted paths to values, got {args.env_edits}")
-  env = envs.create(args.env, **({"edits": edits} if edits else {}))
+    env = envs.create(args.env, **({"edits": edits} if edits else {}))
+  except ValueError as e:  # an unknown env, or an edit of a path the env's desc lacks
+    parser.error(str(e))
   indices = np.asarray([int(i) for i in args.indices.split(",")])
 
   def jitter(sigma, obs, z, *, key, deterministic):
