@@ -11,7 +11,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from blx import envs, metrics
+from blx import envs, metrics, training
 
 __all__ = ["training_curves", "skills", "paths", "draw_paths", "root_body", "root_xy", "density",
            "discriminator", "write_all"]
@@ -96,18 +96,15 @@ def curve_ylabel(key: str) -> str:
   return YLABELS.get(key, key.rsplit("/", 1)[-1].replace("_", " "))
 
 
-# The panels drawn from the trainer's own evaluation episodes (deterministic actions); the other
-# eval/* panels (MI, H(s), LGR, energy distance, mode shares) come from the objective's evaluator
-# (``--eval-metrics``), whose episodes sample their actions, as Braxlines' evaluation does.
-TRAINER_EPISODES = ("eval/episode_reward", "eval/episode_score", "eval/episode_length")
-
-
 def band_caption(num_seeds: int, keys: Sequence[str] = ()) -> str:
   """What the line and the band of a training curve are, and how the panels of ``keys`` were
   measured: the trainer's deterministic episodes, the evaluator's sampled ones, or training."""
   spread = (f"line: mean over {num_seeds} seeds, band: lowest to highest seed" if num_seeds > 1
             else "one seed")
-  sampled = [k for k in keys if k.startswith("eval/") and k not in TRAINER_EPISODES]
+  # training.RETURN_KEYS come from the trainer's own evaluation episodes (deterministic actions);
+  # the other eval/* panels (MI, H(s), LGR, energy distance, mode shares) from the objective's
+  # evaluator (``--eval-metrics``), whose episodes sample their actions as Braxlines' evaluation.
+  sampled = [k for k in keys if k.startswith("eval/") and k not in training.RETURN_KEYS]
   if not sampled:
     return (f"{spread}. eval/*: deterministic evaluation episodes after each chunk; loss/*, "
             "disc/*, policy/*: means over the chunk's training iterations.")

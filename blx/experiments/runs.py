@@ -372,7 +372,7 @@ def evaluate_run_keys(run: Run, key_seeds: Sequence[int], *,
   def one(params, key):
     out = {}
     if not metrics_only:
-      kept = ("eval/episode_reward", "eval/episode_score", "eval/episode_length")
+      kept = training.RETURN_KEYS
       out = {k: v for k, v in trainer.evaluate(params, key).items()  # with per-agent totals
              if k in kept or (k.count("/") == 2 and k.rsplit("/", 1)[0] in kept)}
     if evaluator is not None:

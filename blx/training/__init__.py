@@ -4,10 +4,10 @@ from blx.training.config import PPOConfig, check_seeds, ppo_defaults
 from blx.training.loop import (NonFiniteError, TrainResult, drop_env_state, evaluate_together,
                                print_progress, restore_state, train)
 from blx.training.losses import clipped_surrogate, gae
-from blx.training.ppo import (Params, PolicyParams, Trainer, TrainState, make_policy, make_train,
-                              make_trainer, policy_params)
+from blx.training.ppo import (RETURN_KEYS, Params, PolicyParams, Trainer, TrainState, make_policy,
+                              make_train, make_trainer, policy_params)
 
-__all__ = ["PPOConfig", "ppo_defaults", "check_seeds", "NonFiniteError", "TrainResult", "train",
-           "evaluate_together", "print_progress", "restore_state", "drop_env_state",
-           "clipped_surrogate", "gae", "Params", "PolicyParams", "policy_params", "Trainer", "TrainState", "make_policy",
-           "make_train", "make_trainer"]
+__all__ = ["RETURN_KEYS", "PPOConfig", "ppo_defaults", "check_seeds", "NonFiniteError",
+           "TrainResult", "train", "evaluate_together", "print_progress", "restore_state",
+           "drop_env_state", "clipped_surrogate", "gae", "Params", "PolicyParams", "policy_params",
+           "Trainer", "TrainState", "make_policy", "make_train", "make_trainer"]

@@ -28,7 +28,7 @@ from blx.training.config import PPOConfig
 
 __all__ = ["Params", "PolicyParams", "TrainState", "Trainer", "Learner", "make_learner",
            "make_trainer", "make_train", "make_policy", "network_input", "policy_params", "env_step",
-           "collect", "ppo_loss", "sgd_step", "update", "evaluate"]
+           "collect", "ppo_loss", "sgd_step", "update", "evaluate", "RETURN_KEYS"]
 
 
 @struct.dataclass
@@ -392,6 +392,11 @@ def update(learner: Learner, state: TrainState, data: Rollout) -> tuple[TrainSta
                         + c.env_steps_per_iteration * learner.action_repeat,
                         iteration=state.iteration + 1)
   return state, metrics
+
+
+# The episode totals of ``evaluate`` that a run reports as its returns (each, in a multi-agent
+# run, also per agent: ``eval/episode_reward/<agent>``); its other keys are the env's terms.
+RETURN_KEYS = ("eval/episode_reward", "eval/episode_score", "eval/episode_length")
 
 
 def evaluate(learner: Learner, env: Any, steps: int, params: PolicyParams, key: jax.Array) -> dict:
