@@ -58,9 +58,8 @@ def seed_noise(run, params, key: jax.Array, episodes: int, samples: int) -> dict
   obs = metrics.rollout(run.env, run.policy, params, latents, key, episodes_per_latent=episodes,
                         conditions_policy=mimax)  # [L, M, T, O]
   states = obs[:, :, -last::EVERY]  # [L, M, S, O]
-  shape = states.shape[:3]
-  z = (jnp.broadcast_to(latents[:, None, None, :], shape + latents.shape[-1:]).reshape(
-      -1, latents.shape[-1]) if mimax else None)
+  # each state's latent, in the order of the states' rows below: latent l for its M x S states
+  z = jnp.repeat(latents, states.shape[1] * states.shape[2], axis=0) if mimax else None
   out = noise_at(run.policy, params, states.reshape(-1, states.shape[-1]), z,
                  jax.random.fold_in(key, 1), samples)
   return {k: v.mean() for k, v in out.items()}

@@ -86,6 +86,39 @@ def test_a_seed_is_read_over_its_skills_evaluation_episodes_or_its_plain_ones():
   np.testing.assert_allclose(out["action_std"], 0.1, rtol=0.04)
 
 
+class _Tracer:
+  """Observes its step count and the sum of its first action dim: a skill that acts at its index
+  leaves its index as the ratio of the two."""
+
+  observation_size, action_size = 2, 3
+
+  def reset(self, key):
+    return State(data=None, obs=jnp.zeros(2), reward=jnp.zeros(()), done=jnp.zeros(()))
+
+  def step(self, state, action):
+    return state.replace(obs=state.obs + jnp.stack([1.0, action[0]]))
+
+
+def _true_to_its_state(params, obs, z, *, key, deterministic):
+  """Acts at its skill's index; its noise is small (0.01) where the state shows that skill, and
+  large (1.0) at a state another skill visited."""
+  skill = jnp.argmax(z, -1).astype(jnp.float32)
+  mean = jnp.stack([skill, jnp.zeros_like(skill), jnp.zeros_like(skill)], -1)
+  if deterministic:
+    return mean
+  shown = obs[..., 1] / jnp.maximum(obs[..., 0], 1.0)
+  std = jnp.where(jnp.abs(shown - skill) < 0.5, 0.01, 1.0)[..., None]
+  return mean + std * jax.random.normal(key, mean.shape)
+
+
+def test_each_state_is_read_under_the_skill_whose_episode_visited_it():
+  run = SimpleNamespace(env=envs.episode(_Tracer(), 8), policy=_true_to_its_state,
+                        objective=objectives.diayn(num_skills=3, obs_indices=(0,)))
+  out = jax.jit(lambda k: action_noise.seed_noise(run, {}, k, 4, 500))(jax.random.PRNGKey(0))
+  np.testing.assert_allclose(out["action_std"], 0.01, rtol=0.1)  # a state read under another
+  # skill's latent would draw with std 1
+
+
 @pytest.mark.parametrize("argv, message", [
     (["--samples", "1"], "--samples 1: give 2 or more"),
     (["--episodes", "0"], "--episodes 0: give 1 or more"),
