@@ -33,9 +33,9 @@ from blx.objectives.base import Objective
 from blx.objectives.specs import DminSpec, MimaxSpec
 
 __all__ = ["rollout", "episode_batch", "Evaluator", "latents_for_evaluation", "eval_indices",
-           "mimax_evaluator", "dmin_evaluator", "mode_shares", "mode_balance", "alive_share",
-           "alive_mask", "braxlines_end", "braxlines_window", "braxlines_mutual_information",
-           "evaluate_mimax", "evaluate_dmin"]
+           "lgr_goals", "infer_goal_latents", "mimax_evaluator", "dmin_evaluator", "mode_shares",
+           "mode_balance", "alive_share", "alive_mask", "braxlines_end", "braxlines_window",
+           "braxlines_mutual_information", "evaluate_mimax", "evaluate_dmin"]
 
 
 def rollout(env: Any, policy: Callable, params: dict, latents: jax.Array, key: jax.Array, *,
@@ -111,6 +111,30 @@ def latents_for_evaluation(objective: Objective, key: jax.Array, num_latents: in
   return jax.vmap(prior.sample)(jax.random.split(key, num_latents))
 
 
+def lgr_goals(objective: Objective, num_goals: int = 10) -> jax.Array:
+  """The goals of latent goal reaching (paper Algorithm 2), ``[G, D]`` over the evaluated dims
+  (``eval_indices``): ``num_goals`` draws of U(-obs_scale, obs_scale)^D from ``PRNGKey(0)``, the
+  same for every evaluation, as Braxlines' are."""
+  _check_spec(objective, MimaxSpec, "lgr_goals")
+  if num_goals < 1:
+    raise ValueError(f"lgr_goals: num_goals {num_goals}: give 1 or more")
+  scale = objective.spec.obs_scale
+  return jax.random.uniform(jax.random.PRNGKey(0), (num_goals, len(eval_indices(objective))),
+                            minval=-scale, maxval=scale)
+
+
+def infer_goal_latents(env: Any, objective: Objective, objective_params: Any,
+                       goals: jax.Array) -> jax.Array:
+  """The latent inferred for each goal ``[G, D]``, ``[G, Z]``: the goal is set into an otherwise
+  zero observation at the evaluated dims and read by the objective's ``infer_latent`` (the mean of
+  q(z|g), or the one-hot of its most likely skill), as Algorithm 2 does."""
+  _check_spec(objective, MimaxSpec, "infer_goal_latents")
+  indices = np.asarray(eval_indices(objective))
+  goal_obs = jnp.zeros((goals.shape[0], envs_lib.unwrap(env).observation_size))
+  goal_obs = goal_obs.at[:, indices].set(goals)
+  return jax.vmap(objective.spec.infer_latent, (None, 0))(objective_params, goal_obs)
+
+
 def eval_indices(objective: Objective) -> tuple[int, ...]:
   """The observation dimensions evaluation looks at (``obs_indices``, or diayn_full's named ones)."""
   spec = objective.spec
@@ -158,16 +182,12 @@ def mimax_evaluator(env: Any, objective: Objective, *, num_latents: int = 10,
   indices = np.asarray(eval_indices(objective))
   scale = objective.spec.obs_scale
   value_range = (-scale, scale)
-  infer_latent = objective.spec.infer_latent
-  obs_size = envs_lib.unwrap(env).observation_size
-  goals = jax.random.uniform(jax.random.PRNGKey(0), (num_goals, len(indices)), minval=-scale,
-                             maxval=scale)
-  goal_obs = jnp.zeros((num_goals, obs_size)).at[:, indices].set(goals)
+  goals = lgr_goals(objective, num_goals)
 
   def episodes(policy, params, key):
     z_key, roll_key = jax.random.split(key)
     latents = latents_for_evaluation(objective, z_key, num_latents)
-    goal_latents = jax.vmap(infer_latent, (None, 0))(params.objective, goal_obs)
+    goal_latents = infer_goal_latents(env, objective, params.objective, goals)
     batch, shape = episode_batch(env, policy, params, jnp.concatenate([latents, goal_latents]),
                                  roll_key, episodes_per_latent=episodes_per_latent,
                                  deterministic=deterministic, record=record)

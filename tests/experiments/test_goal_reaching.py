@@ -1,0 +1,123 @@
+"""benchmarks/goal_reaching.py: the LGR split into the goals beyond the policy's reach and the
+inferred latents' excess, on states and stand-in policies whose answer is known."""
+
+import json
+from types import SimpleNamespace
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+from blx import envs, metrics, objectives
+from blx.envs.env import State
+from tests.experiments import load_benchmark
+
+goal_reaching = load_benchmark("goal_reaching")
+
+
+def _episodes(*values):
+  """One latent's states ``[M=1, T=4, D=1]`` repeating ``values`` over time."""
+  return jnp.tile(jnp.asarray(values, jnp.float32), 4 // len(values))[None, :, None]
+
+
+def test_the_lgr_splits_into_reach_and_the_inferred_latents_excess():
+  goals = jnp.array([[-3.0], [0.0]])
+  # goal -3's latent runs at 2 (the wrong way); goal 0's strides between -1 and 1
+  reached = jnp.stack([_episodes(2.0), _episodes(-1.0, 1.0)])
+  # the policy's latents: one strides about 0, one runs at 2; nothing reaches below -1
+  candidates = jnp.stack([_episodes(-1.0, 1.0), _episodes(2.0)])
+  out = goal_reaching.decompose(reached, goals, candidates)
+  np.testing.assert_allclose(out["goal_lgr"], [5.0, 1.0])
+  np.testing.assert_allclose(out["lgr"], 3.0)
+  # each goal's best latent is the striding one: 3 from -3 on average, 1 from 0
+  np.testing.assert_allclose(out["goal_best_lgr"], [3.0, 1.0])
+  np.testing.assert_array_equal(out["best_candidate"], [0, 0])
+  np.testing.assert_allclose(out["inference_excess"], 1.0)
+  # goal -3 lies 3 beyond the nearest mean state (0); goal 0 is one (a latent's mean is 0)
+  np.testing.assert_allclose(out["goal_reach"], [3.0, 0.0])
+  np.testing.assert_allclose(out["reach_lgr"], 1.5)
+  np.testing.assert_allclose(out["reach_low"], [0.0])
+  np.testing.assert_allclose(out["reach_high"], [2.0])
+  np.testing.assert_allclose(out["reached_mean"], [[2.0], [0.0]])
+  np.testing.assert_allclose(out["reached_std"], [[0.0], [1.0]])
+
+
+class _Limited:
+  """Its one observed dim is the first action times 2.5, held within [-1.5, 1.5]: nothing beyond
+  1.5 in magnitude can be reached."""
+
+  observation_size, action_size = 1, 1
+
+  def reset(self, key):
+    return State(data=None, obs=jnp.zeros(1), reward=jnp.zeros(()), done=jnp.zeros(()))
+
+  def step(self, state, action):
+    return state.replace(obs=jnp.clip(2.5 * action[:1], -1.5, 1.5))
+
+
+def _run(sign):
+  """GCRL (the latent is the goal itself, U(-2.5, 2.5)) with a policy that acts at ``sign`` times
+  its latent over 2.5: true to its latent for +1, the mirror image for -1."""
+  def policy(params, obs, z, *, key, deterministic):
+    return sign * z / 2.5
+  return SimpleNamespace(env=envs.episode(_Limited(), 8), policy=policy,
+                         objective=objectives.gcrl(obs_indices=(0,)))
+
+
+def _expected_reach_lgr(goals):
+  return float(np.mean(np.abs(goals - np.clip(goals, -1.5, 1.5))))
+
+
+def test_a_true_policy_loses_only_the_goals_beyond_its_reach_and_a_mirrored_one_its_inference():
+  params = SimpleNamespace(objective=None)
+  goals = np.asarray(metrics.lgr_goals(_run(1).objective))[:, 0]
+  assert np.abs(goals).max() > 1.5  # some goals lie beyond reach, or the test tells nothing
+  floor = _expected_reach_lgr(goals)
+  true = jax.jit(lambda k: goal_reaching.seed_goals(_run(1), params, k, 2, 64, False))(
+      jax.random.PRNGKey(0))
+  np.testing.assert_allclose(true["lgr"], floor, atol=1e-5)
+  # 64 draws of the prior's latents come within about 0.1 of every reachable state
+  np.testing.assert_allclose(true["best_lgr"], floor, atol=0.05)
+  np.testing.assert_allclose(true["reach_lgr"], floor, atol=0.05)
+  assert abs(float(true["inference_excess"])) < 0.05
+  np.testing.assert_allclose(true["reach_low"], [-1.5], atol=1e-5)
+  np.testing.assert_allclose(true["reach_high"], [1.5], atol=1e-5)
+  np.testing.assert_allclose(true["reached_mean"][:, 0], np.clip(goals, -1.5, 1.5), atol=1e-5)
+  # the protocol's own evaluator reads the same LGR from these goals and latents
+  evaluator = metrics.mimax_evaluator(_run(1).env, _run(1).objective, num_latents=2,
+                                      episodes_per_latent=2, last_steps=4, deterministic=True)
+  np.testing.assert_allclose(evaluator(_run(1).policy, params, jax.random.PRNGKey(0))["eval/lgr"],
+                             true["lgr"], atol=1e-5)
+  mirrored = jax.jit(lambda k: goal_reaching.seed_goals(_run(-1), params, k, 2, 64, False))(
+      jax.random.PRNGKey(0))
+  # the same reach, so the same best; the inferred latents send every goal the wrong way
+  np.testing.assert_allclose(mirrored["best_lgr"], true["best_lgr"], atol=0.05)
+  expected = np.mean(np.abs(goals + np.clip(goals, -1.5, 1.5)))
+  np.testing.assert_allclose(mirrored["lgr"], expected, atol=1e-5)
+  np.testing.assert_allclose(mirrored["inference_excess"], expected - floor, atol=0.05)
+
+
+def test_plot_draws_from_the_json(tmp_path):
+  row = {"goals": [[-3.0], [0.5]], "reached_mean": [[-1.5], [0.5]], "reached_std": [[0.1], [0.2]],
+         "candidates": [[-1.0], [0.0], [1.0]], "candidate_means": [[-1.5], [0.0], [1.5]],
+         "reach_low": [-1.5], "reach_high": [1.5]}
+  result = {"label": "gcrl on a stand-in, 1 seed", "indices": [0], "obs_scale": 5.0,
+            "discrete": False, "deterministic": False, "per_seed": {"0": row},
+            "summary": {"lgr": [0.75], "best_lgr": [0.75], "reach_lgr": [0.75]}}
+  (tmp_path / "goal_reaching.json").write_text(json.dumps(result))
+  assert goal_reaching.main([str(tmp_path), "--plot"]) == 0
+  assert (tmp_path / "goal_reaching.png").stat().st_size > 10_000
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["--episodes", "0"], "--episodes 0: give 1 or more"),
+    (["--candidates", "0"], "--candidates 0: give 1 or more"),
+    (["--plot"], "goal_reaching.json is missing; run the analysis first"),
+    (["--plot", "--seeds", "0"], "--seeds and --deterministic choose the analysis"),
+    ([], "no run directory at"),
+])
+def test_bad_input_is_named(capsys, tmp_path, argv, message):
+  with pytest.raises(SystemExit) as exit_:
+    goal_reaching.main([str(tmp_path / "nothing"), *argv])
+  assert exit_.value.code == 2 and message in capsys.readouterr().err
