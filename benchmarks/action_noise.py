@@ -30,7 +30,6 @@ sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import common  # noqa: E402
 
 from blx import metrics  # noqa: E402
-from blx.experiments import runs  # noqa: E402
 from blx.objectives.specs import MimaxSpec  # noqa: E402
 
 EVERY = 50  # one state in EVERY of the scored window
@@ -82,11 +81,7 @@ def main():
     parser.error(f"--episodes {args.episodes}: give 1 or more")
   if args.samples < 2:
     parser.error(f"--samples {args.samples}: give 2 or more (a std needs two draws)")
-  try:
-    run = runs.load_run(args.run)
-    picked = common.seed_positions(args.seeds, len(run.spec.seeds))
-  except (runs.RunError, ValueError) as e:
-    parser.error(str(e))
+  run, picked = common.load_picked(parser, args.run, args.seeds)
   params, keys = common.picked_seeds(run, picked, args.key_seed)
   values = jax.jit(jax.vmap(lambda p, k: seed_noise(run, p, k, args.episodes, args.samples)))(
       params, keys)

@@ -14,6 +14,7 @@ import numpy as np
 from mujoco import mjx
 
 from blx import envs
+from blx.experiments import runs
 from blx.training import PPOConfig
 
 
@@ -124,6 +125,28 @@ def seed_positions(text: str | None, num_seeds: int, flag: str = "--seeds") -> l
     raise ValueError(f"{flag} {','.join(map(str, bad))}: the run has {num_seeds} seeds, "
                      f"positions 0..{num_seeds - 1}")
   return picked
+
+
+def load_picked(parser, run_dir: str, seeds: str | None) -> tuple:
+  """``(run, picked)``: the run at ``run_dir`` and the positions ``--seeds`` names in its seeds
+  (``seed_positions``); a run that cannot be loaded or a bad ``--seeds`` is ``parser.error``."""
+  try:
+    run = runs.load_run(run_dir)
+    return run, seed_positions(seeds, len(run.spec.seeds))
+  except (runs.RunError, ValueError) as e:
+    parser.error(str(e))
+
+
+def seed_table(values: dict, title: str = "metric") -> str:
+  """A Markdown table of per-seed ``values`` (``{name: [seeds, ...]}``): each name's mean +- std
+  over seeds, one per trailing element (e.g. per observed dimension), comma-separated."""
+  lines = [f"| {title} | mean +- std over seeds |", "| --- | ---: |"]
+  for name, v in values.items():
+    a = np.asarray(v, np.float64)
+    a = a.reshape(a.shape[0], -1)
+    lines.append(f"| {name} | " + ", ".join(f"{a[:, j].mean():.3f} +- {a[:, j].std():.3f}"
+                                           for j in range(a.shape[1])) + " |")
+  return "\n".join(lines)
 
 
 def picked_seeds(run, picked: Sequence[int], key_seed: int) -> tuple:

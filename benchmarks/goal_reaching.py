@@ -47,7 +47,6 @@ sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import common  # noqa: E402
 
 from blx import metrics  # noqa: E402
-from blx.experiments import runs  # noqa: E402
 from blx.objectives.specs import MimaxSpec  # noqa: E402
 
 
@@ -182,11 +181,7 @@ def main(argv=None) -> int:
     parser.error(f"--episodes {args.episodes}: give 1 or more")
   if args.candidates < 1:
     parser.error(f"--candidates {args.candidates}: give 1 or more")
-  try:
-    run = runs.load_run(args.run)
-    picked = common.seed_positions(args.seeds, len(run.spec.seeds))
-  except (runs.RunError, ValueError) as e:
-    parser.error(str(e))
+  run, picked = common.load_picked(parser, args.run, args.seeds)
   if not isinstance(run.objective.spec, MimaxSpec):
     parser.error(f"{args.run}: objective {run.spec.objective!r} is not MI-max; goal reaching "
                  "needs latents (gcrl, cdiayn, diayn, diayn_full)")
@@ -208,11 +203,7 @@ def main(argv=None) -> int:
   actions = "mean" if args.deterministic else "sampled"
   print(f"{result['label']}, seeds {[run.spec.seeds[p] for p in picked]}, {actions} actions, "
         f"{args.episodes} episodes per goal and per candidate")
-  print("| metric | mean +- std over seeds |\n| --- | ---: |")
-  for key in SUMMARY:
-    a = values[key].reshape(len(picked), -1)
-    print(f"| {key} | " + ", ".join(f"{a[:, j].mean():.3f} +- {a[:, j].std():.3f}"
-                                     for j in range(a.shape[1])) + " |")
+  print(common.seed_table({k: values[k] for k in SUMMARY}))
   print(f"wrote {out}")
   return 0
 

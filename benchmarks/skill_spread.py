@@ -241,13 +241,8 @@ def main(argv=None) -> int:
   actions = "mean" if args.deterministic else "sampled"
   print(f"{run.spec.objective} on {run.spec.env}, seeds {result['seeds']}, {actions} actions, "
         f"ln K = {math.log(k):.3f}")
-  print("| metric (per observed dimension) | mean +- std over seeds |\n| --- | ---: |")
-  for key_, v in values.items():
-    if key_ == "skill_means":
-      continue
-    a = np.asarray(v)
-    print(f"| {key_} | " + ", ".join(f"{a[:, j].mean():.3f} +- {a[:, j].std():.3f}"
-                                     for j in range(a.shape[1])) + " |")
+  print(common.seed_table({k: v for k, v in values.items() if k != "skill_means"},
+                          "metric (per observed dimension)"))
   print(f"wrote {out}")
   return 0
 

@@ -3,6 +3,7 @@
 (chunk_costs.py, host_loop.py), the vmapped env step timed by env_throughput.py and
 cheetah_step.py, and how fall_analysis.py and skill_spread.py pick a run's seeds and name it."""
 
+import argparse
 
 import jax
 import jax.numpy as jnp
@@ -100,3 +101,17 @@ def test_the_analyses_share_their_run_options():
                                                                    "a.json")
   args = parser.parse_args(["runs/x"])
   assert (args.seeds, args.deterministic, args.out) == (None, False, None)
+
+
+def test_seed_table_gives_each_trailing_element_its_mean_and_std_over_seeds():
+  table = common.seed_table({"lgr": [1.0, 3.0], "reach": [[1.0, -2.0], [3.0, -4.0]]}, "what")
+  assert table.splitlines() == ["| what | mean +- std over seeds |", "| --- | ---: |",
+                                "| lgr | 2.000 +- 1.000 |",
+                                "| reach | 2.000 +- 1.000, -3.000 +- 1.000 |"]
+
+
+def test_load_picked_names_a_missing_run(tmp_path, capsys):
+  parser = argparse.ArgumentParser()
+  with pytest.raises(SystemExit):
+    common.load_picked(parser, str(tmp_path / "nothing"), None)
+  assert "no run directory at" in capsys.readouterr().err
