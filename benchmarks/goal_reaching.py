@@ -19,8 +19,9 @@ episodes each, actions sampled unless ``--deterministic``:
 - ``best_lgr``: for each goal, the lowest LGR of any candidate latent's episodes, averaged over
   goals: what the policy scores where the inference picks its best latent;
 - ``reach_lgr``: for each goal, its distance to the nearest candidate's mean state, averaged over
-  goals: what a policy that sat at that mean would score. It is zero for a goal within the policy's
-  reach, so it counts only the goals beyond it;
+  goals: what a policy that sat at that mean would score. For continuous latents it is near zero
+  for a goal between the lowest and highest mean, so it counts the goals beyond the policy's reach
+  (discrete skills also count a goal's distance to the nearer of two neighbouring skills);
 - ``inference_excess`` = ``lgr - best_lgr``: the part of the LGR the inferred latents add;
 - ``reach_low``, ``reach_high``: the lowest and highest candidate mean state, per dimension;
 - per goal (``goals``, ``inferred_latents``, ``reached_mean``, ``reached_std`` over the episodes'
