@@ -28,6 +28,13 @@
 #    `send` says so: a call of `python3 benchmarks/carry.py send /tmp/stage-NAME $OUT` alone
 #    brings them, before the next call packs the run anew.
 #
+# Two rows side by side (one per GPU, CUDA_VISIBLE_DEVICES=0 and 1): start both in the background
+# and `wait` for both, e.g. `A & B & wait`. The device machine ends the call's whole process
+# session when the call's command line returns, so an arm left running behind a foreground arm
+# that returns early (a RESUME=1 refusal, a bad argument) is killed before it packs, and what it
+# trained since its last pack is lost. Never stop an arm with `pkill -f PATTERN` from the call's
+# command line either: the pattern matches that command line itself and kills the call.
+#
 # The exit status is COMMAND's (124 when interrupted at SECONDS), 2 for a bad call, or 3 where
 # RESUME=1 finds nothing to resume.
 set -uo pipefail

@@ -62,7 +62,7 @@ def decompose(reached: jax.Array, goals: jax.Array, candidates: jax.Array) -> di
   """The decomposition of the module's doc, from the feature states of the goals' episodes
   ``reached [G, M, T, D]`` (episode g under goal g's inferred latent) and of the candidates'
   ``candidates [C, M, T, D]``."""
-  own = jnp.diagonal(distances(reached, goals))  # [G]: goal g's episodes against goal g
+  own = jnp.sqrt(jnp.mean((reached - goals[:, None, None]) ** 2, -1)).mean((1, 2))  # [G]
   against = distances(candidates, goals)  # [G, C]
   means = candidates.mean((1, 2))  # [C, D]
   reach = jnp.sqrt(jnp.mean((means[None] - goals[:, None]) ** 2, -1)).min(1)  # [G]
