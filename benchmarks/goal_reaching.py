@@ -2,6 +2,7 @@
 under any latent, against the goals it could reach under a latent other than the one inferred.
 
     python benchmarks/goal_reaching.py RUN_DIR [--seeds 0,1] [--episodes 4] [--candidates 24]
+                                               [--goal-draw braxlines|partitionable]
                                                [--deterministic] [--out FILE.json]
     python benchmarks/goal_reaching.py RUN_DIR --plot [--out FILE.png]   # from goal_reaching.json
 
@@ -11,7 +12,8 @@ scores ``mean_t sqrt(mean_d (s_d - g_d)^2)`` over the last scored steps. A high 
 causes: goals beyond every speed (or place) the policy reaches, and an inferred latent that is not
 the policy's best for its goal. This script tells them apart.
 
-Per seed, on the protocol's goals (``metrics.lgr_goals``) and the latents it infers
+Per seed, on the protocol's goals (``metrics.lgr_goals``: by default the paper's, ``--goal-draw
+partitionable`` for those blx drew before session 41) and the latents it infers
 (``metrics.infer_goal_latents``), ``--episodes`` episodes each, and on ``--candidates`` latents of
 the prior (every skill's one-hot for discrete skills, prior draws otherwise), the same number of
 episodes each, actions sampled unless ``--deterministic``:
@@ -75,13 +77,13 @@ def decompose(reached: jax.Array, goals: jax.Array, candidates: jax.Array) -> di
           "goal_reach": reach, "candidate_means": means}
 
 
-def seed_goals(run, params, key: jax.Array, episodes: int, num_candidates: int,
-               deterministic: bool) -> dict:
-  """One seed's episodes under its inferred goal latents and under the candidate latents, and
-  ``decompose`` of them, with the goals and the latents."""
+def seed_goals(run, params, key: jax.Array, goals: jax.Array, episodes: int,
+               num_candidates: int, deterministic: bool) -> dict:
+  """One seed's episodes under the latents inferred for ``goals`` ``[G, D]``
+  (``metrics.lgr_goals``) and under the candidate latents, and ``decompose`` of them, with the
+  goals and the latents."""
   objective = run.objective
   indices = np.asarray(metrics.eval_indices(objective))
-  goals = metrics.lgr_goals(objective)
   inferred = metrics.infer_goal_latents(run.env, objective, params.objective, goals)
   z_key, roll_key = jax.random.split(key)
   candidates = metrics.latents_for_evaluation(objective, z_key, num_candidates)
@@ -148,9 +150,13 @@ def plot(result: dict, path: str) -> str:
     right.set_title("each prior latent's mean state, one line per seed", fontsize=10)
   s = result["summary"]
   actions = "mean" if result["deterministic"] else "sampled"
-  fig.suptitle(f"{result['label']}, {actions} actions\nLGR {s['lgr'][0]:.2f}; with each goal's "
-               f"best latent {s['best_lgr'][0]:.2f}; sitting at the mean state nearest each goal "
-               f"{s['reach_lgr'][0]:.2f} (lower is better; means over seeds)", fontsize=10)
+  # a JSON written before session 41 has no goal_draw: its goals were the partitionable draw
+  goals = {"braxlines": "the paper's goals", "partitionable": "goals of the partitionable draw"}[
+      result.get("goal_draw", "partitionable")]
+  fig.suptitle(f"{result['label']}, {actions} actions, {goals}\nLGR {s['lgr'][0]:.2f}; with "
+               f"each goal's best latent {s['best_lgr'][0]:.2f}; sitting at the mean state nearest "
+               f"each goal {s['reach_lgr'][0]:.2f} (lower is better; means over seeds)",
+               fontsize=10)
   fig.tight_layout(rect=(0, 0.1, 1, 1))
   fig.savefig(path, dpi=120)
   plt.close(fig)
@@ -165,13 +171,18 @@ def main(argv=None) -> int:
   parser.add_argument("--candidates", type=int, default=24,
                       help="prior latents tried for a continuous prior (default 24; discrete "
                       "skills try every skill)")
+  parser.add_argument("--goal-draw", choices=metrics.LGR_GOAL_DRAWS, default=None,
+                      help="the protocol's goals: braxlines (default), the paper's, drawn with "
+                      "the random bits of the JAX it ran on; partitionable, those blx's "
+                      "evaluators drew before session 41 (metrics.lgr_goals)")
   parser.add_argument("--plot", action="store_true",
                       help="only draw goal_reaching.png from RUN_DIR/goal_reaching.json")
   args = parser.parse_args(argv)
   default_json = os.path.join(args.run, "goal_reaching.json")
   if args.plot:
-    if args.seeds is not None or args.deterministic:
-      parser.error("--seeds and --deterministic choose the analysis; --plot draws its JSON")
+    if args.seeds is not None or args.deterministic or args.goal_draw is not None:
+      parser.error("--seeds, --deterministic and --goal-draw choose the analysis; --plot draws "
+                   "its JSON")
     if not os.path.exists(default_json):
       parser.error(f"--plot: {default_json} is missing; run the analysis first")
     with open(default_json) as f:
@@ -187,14 +198,17 @@ def main(argv=None) -> int:
     parser.error(f"{args.run}: objective {run.spec.objective!r} is not MI-max; goal reaching "
                  "needs latents (gcrl, cdiayn, diayn, diayn_full)")
   params, keys = common.picked_seeds(run, picked, 2)
+  draw = args.goal_draw or "braxlines"
+  goals = metrics.lgr_goals(run.objective, draw=draw)
   values = jax.jit(jax.vmap(lambda p, k: seed_goals(
-      run, p, k, args.episodes, args.candidates, args.deterministic)))(params, keys)
+      run, p, k, goals, args.episodes, args.candidates, args.deterministic)))(params, keys)
   values = {k: np.asarray(v) for k, v in values.items()}
   prior = run.objective.spec.prior
   result = {"run": os.path.abspath(args.run), "label": common.run_label(run.spec),
             "indices": [int(i) for i in metrics.eval_indices(run.objective)],
             "obs_scale": float(run.objective.spec.obs_scale),
             "discrete": prior.kind == "categorical", "episodes": args.episodes,
+            "goal_draw": draw,
             "deterministic": args.deterministic,
             "summary": {k: np.atleast_1d(values[k].mean(0)).tolist() for k in SUMMARY},
             "per_seed": {str(run.spec.seeds[p]): {k: v[i].tolist() for k, v in values.items()}

@@ -118,10 +118,18 @@ def mean_std(values: list[float]) -> tuple[float, float]:
   return mu, math.sqrt(sum((v - mu) ** 2 for v in values) / len(values))
 
 
+# How ``verdicts`` labels an LGR evaluated on other goals than the paper's: those blx's evaluators
+# drew before session 41 (``metrics.lgr_goals(draw="partitionable")``), where the evaluation does
+# not record ``lgr_goals`` "braxlines".
+OTHER_GOALS = " (not the paper's goals: blx's before session 41)"
+
+
 def verdicts(eval_json: dict) -> list[str]:
   """Markdown rows: metric, blx mean ± std (n), paper, Welch t and p, and whether blx reaches the
-  paper's mean - std."""
+  paper's mean - std. An LGR evaluated on other goals than the paper's (``evaluated_on``'s
+  ``lgr_goals`` not "braxlines") says so (``OTHER_GOALS``)."""
   name, env = eval_json["objective"], eval_json.get("env", "ant")
+  papers_goals = (eval_json.get("evaluated_on") or {}).get("lgr_goals") == "braxlines"
   lines = []
   # Each metric in blx's fixed window, then (where the run logged it) in the window Braxlines'
   # rollout scores (``metrics.braxlines_window``), against the same paper value.
@@ -141,6 +149,8 @@ def verdicts(eval_json: dict) -> list[str]:
       test = f"{t:+.2f} | {p:.3f}"
     else:
       test = "n/a (1 seed) | n/a"
+    if metric == "eval/lgr" and not papers_goals:
+      key += OTHER_GOALS
     lines.append(f"| {env} | {name} | {key} | {mu:.3f} ± {sd:.3f} ({len(values)}) "
                  f"| {mean:.3f} ± {std:.3f} | {test} | {ok} |")
   return lines
@@ -236,6 +246,21 @@ def _budget(rows: list[dict]) -> float | None:
 ONE_MODE = 0.1  # a mode balance below it: the least visited mode has under 5 % of the states
 
 
+def lgr_goals_at(name: str, env_steps: float) -> str | None:
+  """How the LGR goals of the evaluation at ``env_steps`` of the run ``name`` (as ``logged``
+  names it) were drawn: the ``lgr_goals`` of the provenance segment that reached those steps
+  (``NAME_provenance.json`` of a committed row, or ``NAME/provenance.json``); None where no
+  segment says (runs before session 41 drew the partitionable goals)."""
+  for path in (name + "_provenance.json", os.path.join(name, "provenance.json")):
+    if os.path.exists(path):
+      with open(path) as f:
+        segments = json.load(f).get("segments", [])
+      for segment in segments:
+        if segment.get("from_env_steps", 0.0) < env_steps <= segment.get("to_env_steps", 0.0):
+          return segment.get("lgr_goals")
+  return None
+
+
 def progress(*directories: str) -> str:
   """Where rows under training stand: for every run under the directories (``logged``) that logged
   the paper's metrics during training (``--eval-metrics``), the verdicts of its last evaluation
@@ -273,7 +298,8 @@ def progress(*directories: str) -> str:
              if finished else "under training")
     out += [f"{name}: {objective} on {env}, {state}; its last evaluation every seed reached, at "
             f"{last / 1e6:.1f} M{of} env steps per seed:", ""]
-    out += VERDICT_HEADER + verdicts(dict(objective=objective, env=env, per_seed=per_seed))
+    out += VERDICT_HEADER + verdicts(dict(objective=objective, env=env, per_seed=per_seed,
+                                          evaluated_on={"lgr_goals": lgr_goals_at(name, last)}))
     balance = ablations.by_step(ablations.with_mode_balance(rows), ablations.BALANCE).get(last)
     if balance:  # D-min against a target of several modes
       mu, sd = mean_std(list(balance.values()))

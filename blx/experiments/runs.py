@@ -45,6 +45,9 @@ PROVENANCE = "provenance.json"
 # MI-max), or "final", eval.json's own (10 of each). A policy that picks one of the target's modes
 # per episode reads worse on 4 episodes than on 10 (RESULTS, session 32).
 EVAL_PROTOCOLS = ("quick", "final")
+# The LGR goals this blx's evaluators draw (``metrics.mimax_evaluator``'s default ``goal_draw``),
+# recorded in every segment and in eval.json.
+LGR_GOALS = "braxlines"
 
 
 class RunError(ValueError):
@@ -80,6 +83,10 @@ class Segment:
   device_count: int       # the devices jax saw
   versions: dict          # python, jax, jaxlib, mujoco, mujoco-mjx and blx: version strings
   eval_protocol: str | None = None  # the metrics logged during training (EVAL_PROTOCOLS), if any
+  # How this process drew the LGR goals it evaluated (``metrics.LGR_GOAL_DRAWS``): "braxlines", the
+  # paper's goals, from session 41 on; None in segments written before, whose goals were
+  # "partitionable" (other goals from the same key; RESULTS, session 41).
+  lgr_goals: str | None = None
 
 
 def this_machine(from_env_steps: float = 0.0) -> Segment:
@@ -98,7 +105,7 @@ def this_machine(from_env_steps: float = 0.0) -> Segment:
   return Segment(
       started=time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()), from_env_steps=from_env_steps,
       to_env_steps=from_env_steps, device=devices[0].device_kind, platform=devices[0].platform,
-      device_count=len(devices),
+      device_count=len(devices), lgr_goals=LGR_GOALS,
       versions={"python": platform.python_version(), "jax": jax.__version__,
                 "jaxlib": version("jaxlib"), "mujoco": mujoco.__version__,
                 "mujoco-mjx": version("mujoco-mjx"), "blx": blx.__version__})
@@ -468,6 +475,6 @@ def write_eval(run: Run) -> dict:
          "objective": run.spec.objective, "env": run.spec.env,
          "evaluated_on": {"date": machine.started, "device": machine.device,
                           "platform": machine.platform, "device_count": machine.device_count,
-                          "versions": machine.versions}}
+                          "versions": machine.versions, "lgr_goals": machine.lgr_goals}}
   _write_json(os.path.join(run.directory, "eval.json"), out)
   return out

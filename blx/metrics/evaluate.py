@@ -33,7 +33,8 @@ from blx.objectives.base import Objective
 from blx.objectives.specs import DminSpec, MimaxSpec
 
 __all__ = ["rollout", "episode_batch", "Evaluator", "latents_for_evaluation", "eval_indices",
-           "lgr_goals", "infer_goal_latents", "mimax_evaluator", "dmin_evaluator", "mode_shares",
+           "lgr_goals", "LGR_GOAL_DRAWS", "infer_goal_latents", "mimax_evaluator",
+           "dmin_evaluator", "mode_shares",
            "mode_balance", "alive_share", "alive_mask", "braxlines_end", "braxlines_window",
            "braxlines_mutual_information", "evaluate_mimax", "evaluate_dmin"]
 
@@ -111,16 +112,33 @@ def latents_for_evaluation(objective: Objective, key: jax.Array, num_latents: in
   return jax.vmap(prior.sample)(jax.random.split(key, num_latents))
 
 
-def lgr_goals(objective: Objective, num_goals: int = 10) -> jax.Array:
+# How the LGR goals are drawn from PRNGKey(0) (``lgr_goals``): "braxlines", the random bits of the
+# JAX the paper ran on (threefry as it was before JAX 0.5 made it partitionable, so the paper's
+# own goals); "partitionable", the bits of today's default, which blx drew its goals with before
+# session 41 (other goals from the same key: a deviation, kept to finish and to compare runs
+# made with it).
+LGR_GOAL_DRAWS = ("braxlines", "partitionable")
+
+
+def lgr_goals(objective: Objective, num_goals: int = 10, draw: str = "braxlines") -> jax.Array:
   """The goals of latent goal reaching (paper Algorithm 2), ``[G, D]`` over the evaluated dims
   (``eval_indices``): ``num_goals`` draws of U(-obs_scale, obs_scale)^D from ``PRNGKey(0)``, the
-  same for every evaluation, as Braxlines' are."""
+  same for every evaluation. ``draw`` (``LGR_GOAL_DRAWS``) picks the random bits: "braxlines",
+  those of the JAX Braxlines ran on, gives the paper's goals whatever this JAX's default;
+  "partitionable" those of JAX's default since 0.5."""
   _check_spec(objective, MimaxSpec, "lgr_goals")
   if num_goals < 1:
     raise ValueError(f"lgr_goals: num_goals {num_goals}: give 1 or more")
+  if draw not in LGR_GOAL_DRAWS:
+    raise ValueError(f"lgr_goals: draw {draw!r}: valid are {', '.join(LGR_GOAL_DRAWS)}")
   scale = objective.spec.obs_scale
-  return jax.random.uniform(jax.random.PRNGKey(0), (num_goals, len(eval_indices(objective))),
-                            minval=-scale, maxval=scale)
+  shape = (num_goals, len(eval_indices(objective)))
+  bits = getattr(jax, "threefry_partitionable", None)
+  if bits is None:
+    raise ValueError(f"lgr_goals: this JAX ({jax.__version__}) has no threefry_partitionable "
+                     f"setting to draw with; valid here is draw='partitionable' alone")
+  with bits(draw == "partitionable"):
+    return jax.random.uniform(jax.random.PRNGKey(0), shape, minval=-scale, maxval=scale)
 
 
 def infer_goal_latents(env: Any, objective: Objective, objective_params: Any,
@@ -154,7 +172,7 @@ def _check_spec(objective: Objective, spec_type: type, helper: str) -> None:
 def mimax_evaluator(env: Any, objective: Objective, *, num_latents: int = 10,
                     episodes_per_latent: int = 10, last_steps: int = 500, bins: int = 1000,
                     num_goals: int = 10, coverage_cell: float = 1.0,
-                    deterministic: bool = False) -> Evaluator:
+                    deterministic: bool = False, goal_draw: str = "braxlines") -> Evaluator:
   """``(policy, params, key) -> metrics`` for an MI-max objective.
 
   The skill episodes (MI, H(s), coverage) and the goal episodes (LGR) run side by side in one
@@ -164,7 +182,8 @@ def mimax_evaluator(env: Any, objective: Objective, *, num_latents: int = 10,
     ``eval/mi``, ``eval/entropy``, ``eval/conditional_entropy``: the 1-D particle estimates
     (paper Algorithm 1, 1000 bins over [-s, s]) averaged over dims, and per dim
     ``eval/mi_1d/<obs index>``; ``eval/mi_2d``: the 2-D estimate (30 x 30 bins) of the first two
-    dims; ``eval/lgr`` and ``eval/lgr_1d/<obs index>`` (Algorithm 2, goals ~ U(-s, s)^d, seed 0);
+    dims; ``eval/lgr`` and ``eval/lgr_1d/<obs index>`` (Algorithm 2, goals ~ U(-s, s)^d, seed 0,
+    drawn as ``goal_draw`` says: ``lgr_goals``);
     ``eval/coverage``: distinct unit cells of the first two dims visited (all skills together);
     ``eval/alive_share``: the share of the skill episodes' scored states (the last
     ``last_steps``) taken before their episode ended (a fall). The other metrics count every
@@ -182,7 +201,7 @@ def mimax_evaluator(env: Any, objective: Objective, *, num_latents: int = 10,
   indices = np.asarray(eval_indices(objective))
   scale = objective.spec.obs_scale
   value_range = (-scale, scale)
-  goals = lgr_goals(objective, num_goals)
+  goals = lgr_goals(objective, num_goals, goal_draw)
 
   def episodes(policy, params, key):
     z_key, roll_key = jax.random.split(key)

@@ -4,6 +4,8 @@ files they write, and the bad-input cases (one line, exit status 2)."""
 from __future__ import annotations
 
 import csv
+import dataclasses
+import inspect
 import json
 import os
 import re
@@ -15,6 +17,7 @@ import jax
 import numpy as np
 import pytest
 
+from blx import metrics
 from blx.experiments import cli, sweep
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
@@ -45,6 +48,9 @@ def test_train_writes_a_complete_run_directory(trained):
   trainer = json.load(open(os.path.join(trained, "provenance.json")))["segments"][-1]
   assert machine["platform"] == jax.devices()[0].platform == trainer["platform"]
   assert machine["versions"] == trainer["versions"] and machine["date"] >= trainer["started"]
+  # and the LGR goals both drew: the paper's, as the evaluators do by default
+  assert machine["lgr_goals"] == trainer["lgr_goals"] == "braxlines" == inspect.signature(
+      metrics.mimax_evaluator).parameters["goal_draw"].default
   assert config["desc"]["components"]["agent1"]["component"] == "point"
   rows = list(csv.DictReader(open(os.path.join(trained, "metrics.csv"))))
   # 2 evaluations x 2 seeds, with finite rewards.
@@ -491,6 +497,12 @@ def test_the_eval_protocol_sets_the_rollouts_logged_during_training_and_a_run_ke
 def test_provenance_is_empty_for_an_older_run_and_a_foreign_file_is_named(tmp_path):
   from blx.experiments import runs
   assert runs.read_provenance(str(tmp_path)) == []  # a run trained before blx recorded it
+  # a segment written before blx recorded its LGR goals (session 41) reads as None: those runs
+  # drew the partitionable goals
+  old = {k: v for k, v in dataclasses.asdict(runs.this_machine()).items() if k != "lgr_goals"}
+  (tmp_path / "provenance.json").write_text(json.dumps({"segments": [old]}))
+  (segment,) = runs.read_provenance(str(tmp_path))
+  assert segment.lgr_goals is None and segment.device == old["device"]
   for foreign in (json.dumps({"segments": [{"device": "cpu"}]}), "[1, 2]", '{"segments": [1]}',
                   "{not json"):
     (tmp_path / "provenance.json").write_text(foreign)

@@ -74,7 +74,8 @@ def test_a_true_policy_loses_only_the_goals_beyond_its_reach_and_a_mirrored_one_
   goals = np.asarray(metrics.lgr_goals(_run(1).objective))[:, 0]
   assert np.abs(goals).max() > 1.5  # some goals lie beyond reach, or the test tells nothing
   floor = _expected_reach_lgr(goals)
-  true = jax.jit(lambda k: goal_reaching.seed_goals(_run(1), params, k, 2, 64, False))(
+  true = jax.jit(lambda k: goal_reaching.seed_goals(_run(1), params, k, goals[:, None], 2, 64,
+                                                     False))(
       jax.random.PRNGKey(0))
   np.testing.assert_allclose(true["lgr"], floor, atol=1e-5)
   # 64 draws of the prior's latents come within about 0.1 of every reachable state
@@ -89,7 +90,8 @@ def test_a_true_policy_loses_only_the_goals_beyond_its_reach_and_a_mirrored_one_
                                       episodes_per_latent=2, last_steps=4, deterministic=True)
   np.testing.assert_allclose(evaluator(_run(1).policy, params, jax.random.PRNGKey(0))["eval/lgr"],
                              true["lgr"], atol=1e-5)
-  mirrored = jax.jit(lambda k: goal_reaching.seed_goals(_run(-1), params, k, 2, 64, False))(
+  mirrored = jax.jit(lambda k: goal_reaching.seed_goals(_run(-1), params, k, goals[:, None], 2,
+                                                         64, False))(
       jax.random.PRNGKey(0))
   # the same reach, so the same best; the inferred latents send every goal the wrong way
   np.testing.assert_allclose(mirrored["best_lgr"], true["best_lgr"], atol=0.05)
@@ -114,7 +116,8 @@ def test_plot_draws_from_the_json(tmp_path):
     (["--episodes", "0"], "--episodes 0: give 1 or more"),
     (["--candidates", "0"], "--candidates 0: give 1 or more"),
     (["--plot"], "goal_reaching.json is missing; run the analysis first"),
-    (["--plot", "--seeds", "0"], "--seeds and --deterministic choose the analysis"),
+    (["--plot", "--seeds", "0"], "--seeds, --deterministic and --goal-draw choose the analysis"),
+    (["--plot", "--goal-draw", "braxlines"], "--goal-draw choose the analysis"),
     ([], "no run directory at"),
 ])
 def test_bad_input_is_named(capsys, tmp_path, argv, message):

@@ -55,6 +55,17 @@ def test_verdicts_use_the_rows_of_the_env_the_run_trained_on():
   assert paper_tables.verdicts(legacy) == paper_tables.verdicts(dict(run, env="ant"))
 
 
+def test_an_lgr_on_other_goals_than_the_papers_says_so():
+  # eval.json records the LGR goals its evaluator drew from session 41 on; one that does not, or
+  # records the partitionable draw, was scored on other goals than the paper's.
+  run = {"objective": "cdiayn", "env": "halfcheetah", "per_seed": {"eval/lgr": [1.0, 1.2]}}
+  for evaluated_on, other in (({"lgr_goals": "braxlines"}, False), (None, True),
+                              ({"device": "cpu"}, True), ({"lgr_goals": "partitionable"}, True)):
+    (row,) = paper_tables.verdicts(dict(run, evaluated_on=evaluated_on))
+    assert row.startswith("| halfcheetah | cdiayn | -eval/lgr" + (
+        paper_tables.OTHER_GOALS if other else "") + " | -1.100 ± 0.100 (2) |"), row
+
+
 def test_energy_distance_is_compared_as_minus_the_distance():
   run = {"objective": "gail", "env": "halfcheetah",
          "per_seed": {"eval/energy_distance": [0.4, 0.5, 0.6]}}
@@ -277,6 +288,16 @@ def test_progress_reads_committed_rows_and_draws_each_against_the_paper(tmp_path
   text = paper_tables.progress(str(tmp_path))
   assert f"{rows / 'diayn'}: diayn on halfcheetah, finished" in text
   assert "| halfcheetah | diayn | eval/mi (Braxlines' window) | 0.700 ± 0.100 (2) |" in text
+  # Its LGR was evaluated on other goals than the paper's: no provenance says otherwise; then a
+  # segment that drew the partitionable goals up to 1 M steps, and one that drew the paper's.
+  note = "| -eval/lgr" + paper_tables.OTHER_GOALS + " | -2.100 ± 0.100 (2) |"
+  assert note in text
+  for goals, named in (("partitionable", True), ("braxlines", False)):
+    (rows / "diayn_provenance.json").write_text(json.dumps({"segments": [
+        {"from_env_steps": 0.0, "to_env_steps": 5e5, "lgr_goals": "braxlines"},
+        {"from_env_steps": 5e5, "to_env_steps": 1e6, "lgr_goals": goals}]}))
+    assert (note in paper_tables.progress(str(rows))) == named
+  assert note not in paper_tables.progress(str(tmp_path / "hc_gail"))  # D-min: no LGR
   png = tmp_path / "progress.png"
   titles = paper_tables.draw_progress(str(png), str(tmp_path))
   assert titles == ["halfcheetah diayn; Braxlines' window"] * 2 + [

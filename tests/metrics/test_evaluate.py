@@ -57,14 +57,42 @@ def test_mimax_helper_on_skills_that_reach_their_goals():
   # LGR: for gcrl the latent inferred from a goal is the goal itself, which the controller reaches.
   assert out["eval/lgr"] < 1e-3
   # With a controller too weak to arrive (gain 0: the point never moves from the origin) the LGR
-  # is the mean RMS distance of the 10 goals ~ U(-5, 5)^2 from the origin, and MI is 0.
-  still = metrics.evaluate_mimax(env, obj, Hand(gain=0.0), jax.random.PRNGKey(0),
-                                 policy=go_to, num_latents=10, episodes_per_latent=2,
-                                 last_steps=20, bins=1001)
-  goals = jax.random.uniform(jax.random.PRNGKey(0), (10, 2), minval=-5.0, maxval=5.0)
-  np.testing.assert_allclose(still["eval/lgr"], np.mean(np.sqrt(np.mean(np.asarray(goals)**2, -1))),
-                             rtol=1e-4)
-  np.testing.assert_allclose(still["eval/mi"], 0.0, atol=1e-6)
+  # is the mean RMS distance of the 10 goals ~ U(-5, 5)^2 from the origin, and MI is 0: the
+  # paper's goals by default, the other draw where asked.
+  for draw, goals in _goals_from_key_0((10, 2)).items():
+    still = metrics.evaluate_mimax(env, obj, Hand(gain=0.0), jax.random.PRNGKey(0),
+                                   policy=go_to, num_latents=10, episodes_per_latent=2,
+                                   last_steps=20, bins=1001,
+                                   **({} if draw == "braxlines" else {"goal_draw": draw}))
+    np.testing.assert_allclose(still["eval/lgr"], np.mean(np.sqrt(np.mean(goals**2, -1))),
+                               rtol=1e-4)
+    np.testing.assert_allclose(still["eval/mi"], 0.0, atol=1e-6)
+
+
+def _goals_from_key_0(shape) -> dict:
+  """U(-5, 5) draws from PRNGKey(0) with the random bits of the JAX Braxlines ran on (threefry as
+  it was before JAX 0.5) and with those of today's default (partitionable threefry)."""
+  out = {}
+  for draw, partitionable in (("braxlines", False), ("partitionable", True)):
+    with jax.threefry_partitionable(partitionable):
+      out[draw] = np.asarray(jax.random.uniform(jax.random.PRNGKey(0), shape, minval=-5.0,
+                                                maxval=5.0))
+  return out
+
+
+def test_lgr_goals_are_the_papers_whatever_this_jaxs_default():
+  obj = objectives.gcrl(obs_indices="pos_xy", env=point(), obs_scale=5.0)
+  expected = _goals_from_key_0((10, 2))
+  assert not np.allclose(expected["braxlines"], expected["partitionable"])  # the same key
+  default = jax.config.jax_threefry_partitionable
+  for partitionable in (False, True):  # the process's own setting changes nothing
+    with jax.threefry_partitionable(partitionable):
+      np.testing.assert_array_equal(metrics.lgr_goals(obj), expected["braxlines"])
+      for draw in metrics.LGR_GOAL_DRAWS:
+        np.testing.assert_array_equal(metrics.lgr_goals(obj, draw=draw), expected[draw])
+  assert jax.config.jax_threefry_partitionable == default  # and is left as it was
+  with pytest.raises(ValueError, match="draw 'numpy': valid are braxlines, partitionable"):
+    metrics.lgr_goals(obj, draw="numpy")
 
 
 def test_dmin_helper_matches_a_direct_energy_distance():
