@@ -95,6 +95,18 @@ def test_lgr_goals_are_the_papers_whatever_this_jaxs_default():
     metrics.lgr_goals(obj, draw="numpy")
 
 
+def test_lgr_goals_are_what_braxlines_own_call_drew_on_the_jax_it_ran_on():
+  # Braxlines (vgcrl/train.py): tfd.Uniform(-obs_scale, obs_scale).sample(10, PRNGKey(0)), with
+  # obs_scale a vector over the evaluated dims, on a JAX of 2021 (threefry before JAX 0.5).
+  tfd = pytest.importorskip("tensorflow_probability.substrates.jax").distributions
+  obj = objectives.gcrl(obs_indices="pos_xy", env=point(), obs_scale=5.0)
+  scale = np.full(2, 5.0, np.float32)
+  with jax.threefry_partitionable(False):
+    theirs = tfd.Uniform(low=-scale, high=scale).sample(seed=jax.random.PRNGKey(0),
+                                                        sample_shape=(10,))
+  np.testing.assert_allclose(metrics.lgr_goals(obj), theirs, atol=1e-6)
+
+
 def test_dmin_helper_matches_a_direct_energy_distance():
   env = point(100)
   obj = objectives.gail(obs_indices="pos_xy", env=env, obs_scale=8.0)  # modes (+-4, 0)
