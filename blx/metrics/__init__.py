@@ -2,9 +2,10 @@
 (``particle``) and the evaluation helpers that roll trained policies out to feed them
 (``evaluate``)."""
 
-from blx.metrics.evaluate import (LGR_GOAL_DRAWS, Evaluator, alive_mask, alive_share, braxlines_end,
-                                  braxlines_mutual_information, braxlines_window, dmin_evaluator,
-                                  episode_batch, eval_indices, evaluate_dmin, evaluate_mimax,
+from blx.metrics.evaluate import (LGR_GOAL_DRAWS, Evaluator, alive_mask, alive_share,
+                                  braxlines_end, braxlines_mutual_information, braxlines_window,
+                                  dmin_evaluator, episode_batch, eval_indices, evaluate_dmin,
+                                  evaluate_mimax,
                                   infer_goal_latents, latents_for_evaluation, lgr_goals,
                                   mimax_evaluator, mode_balance, mode_shares, rollout)
 from blx.metrics.families import (PLOTS, Family, evaluator_for, family_of, register_family,

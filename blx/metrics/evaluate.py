@@ -34,9 +34,9 @@ from blx.objectives.specs import DminSpec, MimaxSpec
 
 __all__ = ["rollout", "episode_batch", "Evaluator", "latents_for_evaluation", "eval_indices",
            "lgr_goals", "LGR_GOAL_DRAWS", "infer_goal_latents", "mimax_evaluator",
-           "dmin_evaluator", "mode_shares",
-           "mode_balance", "alive_share", "alive_mask", "braxlines_end", "braxlines_window",
-           "braxlines_mutual_information", "evaluate_mimax", "evaluate_dmin"]
+           "dmin_evaluator", "mode_shares", "mode_balance", "alive_share", "alive_mask",
+           "braxlines_end", "braxlines_window", "braxlines_mutual_information", "evaluate_mimax",
+           "evaluate_dmin"]
 
 
 def rollout(env: Any, policy: Callable, params: dict, latents: jax.Array, key: jax.Array, *,
@@ -134,9 +134,12 @@ def lgr_goals(objective: Objective, num_goals: int = 10, draw: str = "braxlines"
   scale = objective.spec.obs_scale
   shape = (num_goals, len(eval_indices(objective)))
   bits = getattr(jax, "threefry_partitionable", None)
-  if bits is None:
-    raise ValueError(f"lgr_goals: this JAX ({jax.__version__}) has no threefry_partitionable "
-                     f"setting to draw with; valid here is draw='partitionable' alone")
+  if bits is None:  # a JAX past the setting draws partitionable bits alone
+    if draw != "partitionable":
+      raise ValueError(f"lgr_goals: this JAX ({jax.__version__}) has no threefry_partitionable "
+                       f"setting to draw the paper's goals with; valid here is "
+                       f"draw='partitionable' alone")
+    return jax.random.uniform(jax.random.PRNGKey(0), shape, minval=-scale, maxval=scale)
   with bits(draw == "partitionable"):
     return jax.random.uniform(jax.random.PRNGKey(0), shape, minval=-scale, maxval=scale)
 

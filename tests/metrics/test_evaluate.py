@@ -95,6 +95,16 @@ def test_lgr_goals_are_the_papers_whatever_this_jaxs_default():
     metrics.lgr_goals(obj, draw="numpy")
 
 
+def test_a_jax_without_the_old_random_bits_names_the_one_draw_it_can_make(monkeypatch):
+  obj = objectives.gcrl(obs_indices="pos_xy", env=point(), obs_scale=5.0)
+  expected = _goals_from_key_0((10, 2))["partitionable"]
+  monkeypatch.delattr(jax, "threefry_partitionable")
+  with pytest.raises(ValueError, match="no threefry_partitionable setting to draw the paper's "
+                                       "goals with; valid here is draw='partitionable' alone"):
+    metrics.lgr_goals(obj)
+  np.testing.assert_array_equal(metrics.lgr_goals(obj, draw="partitionable"), expected)
+
+
 def test_lgr_goals_are_what_braxlines_own_call_drew_on_the_jax_it_ran_on():
   # Braxlines (vgcrl/train.py): tfd.Uniform(-obs_scale, obs_scale).sample(10, PRNGKey(0)), with
   # obs_scale a vector over the evaluated dims, on a JAX of 2021 (threefry before JAX 0.5).
