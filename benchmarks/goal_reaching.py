@@ -198,7 +198,7 @@ def main(argv=None) -> int:
     parser.error(f"{args.run}: objective {run.spec.objective!r} is not MI-max; goal reaching "
                  "needs latents (gcrl, cdiayn, diayn, diayn_full)")
   params, keys = common.picked_seeds(run, picked, 2)
-  draw = args.goal_draw or "braxlines"
+  draw = args.goal_draw or metrics.LGR_GOAL_DRAWS[0]
   goals = metrics.lgr_goals(run.objective, draw=draw)
   values = jax.jit(jax.vmap(lambda p, k: seed_goals(
       run, p, k, goals, args.episodes, args.candidates, args.deterministic)))(params, keys)

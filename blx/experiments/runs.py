@@ -47,7 +47,7 @@ PROVENANCE = "provenance.json"
 EVAL_PROTOCOLS = ("quick", "final")
 # The LGR goals this blx's evaluators draw (``metrics.mimax_evaluator``'s default ``goal_draw``),
 # recorded in every segment and in eval.json.
-LGR_GOALS = "braxlines"
+LGR_GOALS = metrics.LGR_GOAL_DRAWS[0]
 
 
 class RunError(ValueError):

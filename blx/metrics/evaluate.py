@@ -19,6 +19,7 @@ is ``policy(params, obs [N, O], z [N, Z] | None, key=..., deterministic=...) -> 
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 from typing import Any, Callable
 
@@ -116,11 +117,12 @@ def latents_for_evaluation(objective: Objective, key: jax.Array, num_latents: in
 # JAX the paper ran on (threefry as it was before JAX 0.5 made it partitionable, so the paper's
 # own goals); "partitionable", the bits of today's default, which blx drew its goals with before
 # session 41 (other goals from the same key: a deviation, kept to finish and to compare runs
-# made with it).
+# made with it). The first is the evaluators' default.
 LGR_GOAL_DRAWS = ("braxlines", "partitionable")
 
 
-def lgr_goals(objective: Objective, num_goals: int = 10, draw: str = "braxlines") -> jax.Array:
+def lgr_goals(objective: Objective, num_goals: int = 10,
+              draw: str = LGR_GOAL_DRAWS[0]) -> jax.Array:
   """The goals of latent goal reaching (paper Algorithm 2), ``[G, D]`` over the evaluated dims
   (``eval_indices``): ``num_goals`` draws of U(-obs_scale, obs_scale)^D from ``PRNGKey(0)``, the
   same for every evaluation. ``draw`` (``LGR_GOAL_DRAWS``) picks the random bits: "braxlines",
@@ -134,13 +136,11 @@ def lgr_goals(objective: Objective, num_goals: int = 10, draw: str = "braxlines"
   scale = objective.spec.obs_scale
   shape = (num_goals, len(eval_indices(objective)))
   bits = getattr(jax, "threefry_partitionable", None)
-  if bits is None:  # a JAX past the setting draws partitionable bits alone
-    if draw != "partitionable":
-      raise ValueError(f"lgr_goals: this JAX ({jax.__version__}) has no threefry_partitionable "
-                       f"setting to draw the paper's goals with; valid here is "
-                       f"draw='partitionable' alone")
-    return jax.random.uniform(jax.random.PRNGKey(0), shape, minval=-scale, maxval=scale)
-  with bits(draw == "partitionable"):
+  if bits is None and draw != "partitionable":  # a JAX past the setting draws those bits alone
+    raise ValueError(f"lgr_goals: this JAX ({jax.__version__}) has no threefry_partitionable "
+                     f"setting to draw the paper's goals with; valid here is "
+                     f"draw='partitionable' alone")
+  with contextlib.nullcontext() if bits is None else bits(draw == "partitionable"):
     return jax.random.uniform(jax.random.PRNGKey(0), shape, minval=-scale, maxval=scale)
 
 
@@ -175,7 +175,8 @@ def _check_spec(objective: Objective, spec_type: type, helper: str) -> None:
 def mimax_evaluator(env: Any, objective: Objective, *, num_latents: int = 10,
                     episodes_per_latent: int = 10, last_steps: int = 500, bins: int = 1000,
                     num_goals: int = 10, coverage_cell: float = 1.0,
-                    deterministic: bool = False, goal_draw: str = "braxlines") -> Evaluator:
+                    deterministic: bool = False,
+                    goal_draw: str = LGR_GOAL_DRAWS[0]) -> Evaluator:
   """``(policy, params, key) -> metrics`` for an MI-max objective.
 
   The skill episodes (MI, H(s), coverage) and the goal episodes (LGR) run side by side in one
