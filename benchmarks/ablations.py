@@ -257,6 +257,62 @@ def final_with_mode_balance(result: dict) -> dict:
   return {**result, "per_seed": {**per_seed, BALANCE: [float(b) for b in balance]}}
 
 
+# The LGR's keys. One scored on other goals than the paper's (blx's evaluators drew other goals
+# before session 41: ``paper_tables.OTHER_GOALS``) moves to ``other_goals(key)``, a metric of its
+# own, so that no curve, table or test sets it beside an LGR on the paper's goals.
+LGR_KEYS = ("eval/lgr", "eval/lgr_braxlines")
+
+
+def other_goals(key: str) -> str:
+  """The key an LGR ``key`` scored on other goals than the paper's is kept under."""
+  return key + paper_tables.OTHER_GOALS
+
+
+def with_other_goals(metrics: tuple[str, ...]) -> tuple[str, ...]:
+  """``metrics`` with each LGR key followed by ``other_goals`` of it: the keys a table covers."""
+  return tuple(k for key in metrics for k in ((key, other_goals(key)) if key in LGR_KEYS
+                                                 else (key,)))
+
+
+def _on_papers_goals(segments: list[runs.Segment] | tuple, env_steps: float) -> bool:
+  """Whether the evaluation at ``env_steps`` scored the LGR on the paper's goals: the first
+  provenance segment that reached those steps says "braxlines"; False where none did (a run from
+  before blx recorded provenance, whose goals were blx's old ones)."""
+  for segment in segments:
+    if env_steps <= segment.to_env_steps:
+      return segment.lgr_goals == "braxlines"
+  return False
+
+
+def with_lgr_goals(rows: list[dict], segments: list[runs.Segment] | tuple) -> list[dict]:
+  """metrics.csv rows with each LGR that was not scored on the paper's goals (by the run's
+  provenance ``segments``: ``_on_papers_goals``) moved to ``other_goals`` of its key."""
+  out = []
+  for row in rows:
+    if (any(row.get(k) not in (None, "") for k in LGR_KEYS)
+        and not _on_papers_goals(segments, float(row["env_steps"]))):
+      row = {other_goals(k) if k in LGR_KEYS else k: v for k, v in row.items()}
+    out.append(row)
+  return out
+
+
+def final_with_lgr_goals(result: dict) -> dict:
+  """An eval.json with its LGR moved to ``other_goals`` of its key where it was not scored on the
+  paper's goals (``evaluated_on``'s ``lgr_goals`` is not "braxlines", or it is not recorded)."""
+  per_seed = result.get("per_seed", {})
+  if ((result.get("evaluated_on") or {}).get("lgr_goals") == "braxlines"
+      or not any(k in per_seed for k in LGR_KEYS)):
+    return result
+  return {**result, "per_seed": {other_goals(k) if k in LGR_KEYS else k: v
+                                 for k, v in per_seed.items()}}
+
+
+def final_lgr_and_balance(result: dict) -> dict:
+  """An eval.json as the reports read it: ``final_with_lgr_goals`` of
+  ``final_with_mode_balance``."""
+  return final_with_lgr_goals(final_with_mode_balance(result))
+
+
 def by_step(rows: list[dict], key: str) -> dict[float, dict[int, float]]:
   """``{env steps: {seed: value}}`` of ``key`` in metrics.csv rows (rows without a finite value
   left out)."""
@@ -346,7 +402,9 @@ def against(curves: dict[str, list[dict]], name: str, reference: list[dict],
                                     f" (the arm's last: {steps[-1] / 1e6:.2f} M)")
       cells = [label, key, at, f"{mean:.3f} ± {std:.3f} ({len(values)})"]
       ref = list(ref_by_step.get(step, {}).values())
-      if not ref:
+      if not ref_by_step:  # e.g. an LGR the reference scored on other goals only
+        cells += [f"no {key}", "", ""]
+      elif not ref:
         near = sorted(ref_by_step, key=lambda s: abs(s - step))[:2]
         cells += [f"no evaluation at {step / 1e6:.2f} M (nearest: "
                   f"{', '.join(f'{s / 1e6:.2f} M' for s in sorted(near)) or 'none'})", "", ""]
@@ -385,8 +443,8 @@ def during(curves: dict[str, tuple[str, list[dict]]], metrics: tuple[str, ...]) 
 
 
 # +1: a larger value is better, -1: a smaller; the metrics whose wall time to a target is tabulated.
-BETTER = {"eval/mi": 1, "eval/entropy": 1, "eval/lgr": -1, "eval/energy_distance": -1,
-          "eval/episode_env_reward": 1, "eval/episode_score": 1}
+BETTER = {"eval/mi": 1, "eval/entropy": 1, "eval/lgr": -1, other_goals("eval/lgr"): -1,
+          "eval/energy_distance": -1, "eval/episode_env_reward": 1, "eval/episode_score": 1}
 
 
 def ran_on(segments: list[runs.Segment]) -> str:
@@ -528,8 +586,9 @@ def read_reference(name: str, path: str, metrics: tuple[str, ...]) -> Reference:
   """The run at ``path`` (a run directory or its metrics.csv) as a ``Reference``, with the
   eval.json beside its metrics.csv where there is one; refuses one that logs none of ``metrics``
   (a run trained without ``--eval-metrics``). A run's files committed under a prefix, as the
-  paper's rows in ``benchmarks/paper/`` (``airl_metrics.csv``), take the eval.json of their
-  prefix (``airl_eval.json``) and have no provenance."""
+  paper's rows in ``benchmarks/paper/`` (``airl_metrics.csv``), take the eval.json and the
+  provenance of their prefix (``airl_eval.json``, ``airl_provenance.json``). An LGR not scored on
+  the paper's goals is kept under ``other_goals`` of its key (``with_lgr_goals``)."""
   csv_path = os.path.join(path, "metrics.csv") if os.path.isdir(path) else path
   if not os.path.isfile(csv_path):
     raise ValueError(f"{path}: not a run directory with metrics.csv, nor a metrics.csv file")
@@ -542,8 +601,10 @@ def read_reference(name: str, path: str, metrics: tuple[str, ...]) -> Reference:
   eval_path = os.path.join(os.path.dirname(csv_path), f"{prefix}eval.json")
   if prefix is not None and os.path.isfile(eval_path):
     with open(eval_path) as f:
-      final = final_with_mode_balance(json.load(f))
-  segments = runs.read_provenance(os.path.dirname(csv_path)) if prefix == "" else []
+      final = final_lgr_and_balance(json.load(f))
+  segments = (runs.read_provenance(os.path.dirname(csv_path), f"{prefix}{runs.PROVENANCE}")
+              if prefix is not None else [])
+  rows = with_lgr_goals(rows, segments)
   objective = (final or {}).get("objective")
   config_path = os.path.join(os.path.dirname(csv_path), f"{prefix}config.json")
   if prefix is not None and os.path.isfile(config_path):
@@ -596,10 +657,10 @@ def report(study_name: str, study: Study, directory: str, sweep_spec: dict,
     if any(s.eval_protocol == "final" for s in devices[name]):
       labels[name] += " (curves: the final protocol)"  # 10 episodes, not 4: another estimator
     with open(os.path.join(path, "metrics.csv")) as f:
-      curves[name] = with_mode_balance(list(csv.DictReader(f)))
+      curves[name] = with_lgr_goals(with_mode_balance(list(csv.DictReader(f))), devices[name])
     if os.path.exists(os.path.join(path, "eval.json")):
       with open(os.path.join(path, "eval.json")) as f:
-        arms[name] = final_with_mode_balance(json.load(f))
+        arms[name] = final_lgr_and_balance(json.load(f))
     else:  # still training (or stopped): drawn and compared during training, not in the finals
       labels[name] += " (unfinished)"
   if not curves:
@@ -608,25 +669,36 @@ def report(study_name: str, study: Study, directory: str, sweep_spec: dict,
                            squeeze=False)  # 2.4 inches for the legend beside the panels
   span = max((float(r["env_steps"]) for rows in curves.values() for r in rows), default=0.0)
   for ax, key in zip(axes[0], study.metrics):
-    for name, rows in curves.items():
-      steps, mean, std = curve(rows, key)
-      if not steps:
+    # an LGR on other goals than the paper's is drawn faded beside it, without a legend entry
+    faded = False
+    for shown_key, alpha in ((key, 1.0), (other_goals(key), 0.35)):
+      if shown_key != key and key not in LGR_KEYS:
         continue
-      x = [s / 1e6 for s in steps]
-      colour, line = styles[name]
-      ax.plot(x, mean, line, color=colour, label=labels[name])
-      ax.fill_between(x, [m - s for m, s in zip(mean, std)], [m + s for m, s in zip(mean, std)],
-                      color=colour, alpha=0.2)
-    for reference, style in zip(references, REFERENCE_STYLES):
-      steps, mean, std = curve(reference.rows, key)
-      shown = [(s / 1e6, m, d) for s, m, d in zip(steps, mean, std) if s <= span]
-      if shown:
-        x, m, d = zip(*shown)
-        ax.plot(x, m, style, color="0.2", label=reference.name)
-        ax.fill_between(x, [a - b for a, b in zip(m, d)], [a + b for a, b in zip(m, d)],
-                        color="k", alpha=0.08)
+      for name, rows in curves.items():
+        steps, mean, std = curve(rows, shown_key)
+        if not steps:
+          continue
+        x = [s / 1e6 for s in steps]
+        colour, line = styles[name]
+        ax.plot(x, mean, line, color=colour, alpha=alpha,
+                label=labels[name] if alpha == 1.0 else None)
+        ax.fill_between(x, [m - s for m, s in zip(mean, std)],
+                        [m + s for m, s in zip(mean, std)], color=colour, alpha=0.2 * alpha)
+        faded |= alpha < 1.0
+      for reference, style in zip(references, REFERENCE_STYLES):
+        steps, mean, std = curve(reference.rows, shown_key)
+        shown = [(s / 1e6, m, d) for s, m, d in zip(steps, mean, std) if s <= span]
+        if shown:
+          x, m, d = zip(*shown)
+          ax.plot(x, m, style, color="0.2", alpha=alpha,
+                  label=reference.name if alpha == 1.0 else None)
+          ax.fill_between(x, [a - b for a, b in zip(m, d)], [a + b for a, b in zip(m, d)],
+                          color="k", alpha=0.08 * alpha)
+          faded |= alpha < 1.0
     ax.set_xlabel("env steps per seed (millions)")
-    ax.set_title(LABELS.get(key, key))
+    ax.set_title(LABELS.get(key, key) + ("\n(faded: on blx's goals before session 41, "
+                                         "not the paper's)" if faded else ""),
+                 fontsize=None if not faded else 9)
     plots.value_axis(ax, key)
     ax.grid(alpha=0.3)
   # Beside the panels rather than over the curves (the saved figure's box takes it in), with every
@@ -643,13 +715,14 @@ def report(study_name: str, study: Study, directory: str, sweep_spec: dict,
   fig.savefig(os.path.join(directory, "curves.png"), dpi=120, bbox_inches="tight")
   plt.close(fig)
   labelled = {labels[name]: arm for name, arm in arms.items()}
-  table = ("\n".join(compare(labelled, study.metrics)) if arms
+  metrics = with_other_goals(study.metrics)  # the tables' keys: an LGR on other goals its own
+  table = ("\n".join(compare(labelled, metrics)) if arms
            else "No arm has its final evaluation (eval.json) yet.")
   by_label = {labels[n]: (objectives[n], rows) for n, rows in curves.items()}
   by_arm = {label: rows for label, (_, rows) in by_label.items()}
   if len(arms) < len(curves):
     table += ("\n\nAn arm is unfinished: every arm's evaluation during training at the last env "
-              "steps all of them reached:\n\n" + "\n".join(during(by_label, study.metrics)))
+              "steps all of them reached:\n\n" + "\n".join(during(by_label, metrics)))
   # references that logged their wall time join the table after the arms (the target stays the
   # first arm's of the objective each faces), named as such: they ran in another process, perhaps
   # on another machine
@@ -665,7 +738,7 @@ def report(study_name: str, study: Study, directory: str, sweep_spec: dict,
               "seeds), from each run's start, compilation and evaluations included (compare arms "
               "run on one device" + ("; a reference ran in a process of its own, perhaps on "
                                      "another machine" if timed else "") + "):\n\n"
-              + "\n".join(time_to(with_timed, study.metrics, ran)))
+              + "\n".join(time_to(with_timed, metrics, ran)))
   to_paper = time_to_paper(with_timed, sweep_spec["env"], study.metrics, ran)
   if to_paper:
     table += ("\n\nWall time to the paper's value (its mean, `paper_tables.PAPER`), mean over "
@@ -678,7 +751,7 @@ def report(study_name: str, study: Study, directory: str, sweep_spec: dict,
     whose = ("Each arm's" if len(faced) == len(curves)
              else f"Each {reference.objective} arm's")  # a reference of one objective of several
     rows = against({labels[n]: curves[n] for n in faced}, reference.name, reference.rows,
-                   study.metrics)
+                   metrics)
     table += (f"\n\n{whose} last evaluation during training against {reference.name} at the "
               "same env steps:\n\n" + "\n".join(rows))
     finals = {labels[n]: arm for n, arm in arms.items() if n in faced}
@@ -692,7 +765,7 @@ def report(study_name: str, study: Study, directory: str, sweep_spec: dict,
       notes.insert(0, "arms of another objective are tested against their own first arm")
     table += (f"\n\nThe final evaluations (eval.json), first {reference.name}'s"
               + (f" ({'; '.join(notes)})" if notes else "") + ":\n\n"
-              + "\n".join(compare({reference.name: reference.final, **finals}, study.metrics)))
+              + "\n".join(compare({reference.name: reference.final, **finals}, metrics)))
   with open(os.path.join(directory, "ablation.md"), "w") as f:
     f.write(f"# {study_name}\n\n{study.claim_line[0].upper()}{study.claim_line[1:]}.\n\n"
             f"{budget_line(study, sweep_spec, trained)}\n\n{table}\n")

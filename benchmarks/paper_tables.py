@@ -225,14 +225,17 @@ def logged(*directories: str) -> list[tuple[str, dict | str, list[dict], bool]]:
 
 def _paper_curves(rows: list[dict], env: str, objective: str):
   """Per metric of the paper's row of ``objective`` on ``env``: ``(key, paper mean, paper std,
-  window, (env steps, mean, std))``, the curve in Braxlines' window (where the paper's numbers were
-  taken) where the run logged it, else in blx's."""
+  window, (env steps, mean, std), other)``, the curve in Braxlines' window (where the paper's
+  numbers were taken) where the run logged it, else in blx's; ``other``, an LGR's curve on other
+  goals than the paper's (``rows`` as ``ablations.with_lgr_goals`` gives them), else empty."""
   import ablations  # its curves; it imports this module, so not at the top
   out = []
   for key, (mean, std) in PAPER.get(env, {}).get(objective, {}).items():
     sign, key = (-1.0, key[1:]) if key.startswith("-") else (1.0, key)
     window, curve = ablations.paper_window_curve(rows, key)
-    out.append((key, sign * mean, std, f"{window} window", curve))
+    other = (ablations.curve(rows, ablations.other_goals(key)) if key in ablations.LGR_KEYS
+             else ([], [], []))
+    out.append((key, sign * mean, std, f"{window} window", curve, other))
   return out
 
 
@@ -246,18 +249,25 @@ def _budget(rows: list[dict]) -> float | None:
 ONE_MODE = 0.1  # a mode balance below it: the least visited mode has under 5 % of the states
 
 
+def _segments(name: str) -> list[runs.Segment]:
+  """The provenance segments of the run ``name`` (as ``logged`` names it): a committed row's
+  ``NAME_provenance.json``, or ``NAME/provenance.json``; ``[]`` where it has none."""
+  for directory, filename in ((os.path.dirname(name),
+                               f"{os.path.basename(name)}_{runs.PROVENANCE}"),
+                              (name, runs.PROVENANCE)):
+    if os.path.exists(os.path.join(directory, filename)):
+      return runs.read_provenance(directory, filename)
+  return []
+
+
 def lgr_goals_at(name: str, env_steps: float) -> str | None:
   """How the LGR goals of the evaluation at ``env_steps`` of the run ``name`` (as ``logged``
   names it) were drawn: the ``lgr_goals`` of the provenance segment that reached those steps
-  (``NAME_provenance.json`` of a committed row, or ``NAME/provenance.json``); None where no
-  segment says (runs before session 41 drew the partitionable goals)."""
-  for path in (name + "_provenance.json", os.path.join(name, "provenance.json")):
-    if os.path.exists(path):
-      with open(path) as f:
-        segments = json.load(f).get("segments", [])
-      for segment in segments:
-        if segment.get("from_env_steps", 0.0) < env_steps <= segment.get("to_env_steps", 0.0):
-          return segment.get("lgr_goals")
+  (``_segments``); None where no segment says (runs before session 41 drew the partitionable
+  goals)."""
+  for segment in _segments(name):
+    if segment.from_env_steps < env_steps <= segment.to_env_steps:
+      return segment.lgr_goals
   return None
 
 
@@ -306,6 +316,8 @@ def progress(*directories: str) -> str:
       one = sum(b < ONE_MODE for b in balance.values())
       out += ["", f"Mode balance there (1: an even split; 0: one mode): {mu:.2f} ± {sd:.2f}; "
                   f"{one} of {len(balance)} seeds on one mode (balance below {ONE_MODE:g})."]
+    # the paper's value is reached on the paper's goals only (an LGR on others is set apart)
+    rows = ablations.with_lgr_goals(rows, _segments(name))
     out += [""] + ablations.time_to_paper({objective: (objective, rows)}, env,
                                           tuple(k for k in keys if k in ablations.BETTER)) + [""]
   return "\n".join(out)
@@ -326,7 +338,8 @@ def draw_progress(path: str, *directories: str) -> list[str]:
     if isinstance(config, str):
       continue
     env, objective = config["env"], config["objective"]
-    curves = [c for c in _paper_curves(rows, env, objective) if c[-1][0]]
+    rows = ablations.with_lgr_goals(rows, _segments(name))
+    curves = [c for c in _paper_curves(rows, env, objective) if c[-2][0] or c[-1][0]]
     if curves:
       base = os.path.basename(name)
       title = f"{env} {objective}" + ("" if base in (objective, f"objective={objective}")
@@ -342,16 +355,19 @@ def draw_progress(path: str, *directories: str) -> list[str]:
                                                           3.2 * len(panels) + 0.6),
                            squeeze=False, layout="constrained")
   for row_axes, (title, budget, curves) in zip(axes, panels):
-    for ax, (key, mean, std, window, (steps, m, d)) in zip(row_axes, curves):
-      x = [s / 1e6 for s in steps]
-      ax.plot(x, m, "-", color="C0", label="blx (mean ± std over seeds)")
-      ax.fill_between(x, [a - b for a, b in zip(m, d)], [a + b for a, b in zip(m, d)],
-                      color="C0", alpha=0.2)
+    for ax, (key, mean, std, window, curve, other) in zip(row_axes, curves):
+      for (steps, m, d), alpha, label in ((curve, 1.0, "blx (mean ± std over seeds)"),
+                                          (other, 0.35, None)):
+        x = [s / 1e6 for s in steps]
+        ax.plot(x, m, "-", color="C0", alpha=alpha, label=label)
+        ax.fill_between(x, [a - b for a, b in zip(m, d)], [a + b for a, b in zip(m, d)],
+                        color="C0", alpha=0.2 * alpha)
       ax.axhline(mean, color="C3", linestyle="--", label="the paper's final value (mean ± std)")
       ax.axhspan(mean - std, mean + std, color="C3", alpha=0.1)
-      ax.set_xlim(0, max(budget, steps[-1]) / 1e6 * 1.02)
-      titles.append(f"{title}; {window}")
-      ax.set_title(titles[-1], fontsize=9)
+      ax.set_xlim(0, max([budget] + curve[0] + other[0]) / 1e6 * 1.02)
+      faded = "; faded: blx's old goals, not the paper's" if other[0] else ""
+      titles.append(f"{title}; {window}{faded}")
+      ax.set_title(textwrap.fill(titles[-1], 64), fontsize=9)
       ax.set_ylabel(ablations.LABELS.get(key, key), fontsize=8)
       ax.set_xlabel("env steps per seed (millions)")
       plots.value_axis(ax, key)

@@ -115,10 +115,12 @@ def band_caption(num_seeds: int, keys: Sequence[str] = ()) -> str:
 
 
 def training_curves(history: list[dict], path: str, *, titles: dict[str, str] | None = None,
-                    title: str = "") -> list[str]:
+                    title: str = "", lgr_goals_from: float | None = None) -> list[str]:
   """A grid of curves (mean over seeds, band = min..max) against env steps, each with its y label
   and a caption saying what line and band are; returns the keys. ``titles`` replaces a panel's
-  title (default: its key); ``title`` heads the figure."""
+  title (default: its key); ``title`` heads the figure. ``lgr_goals_from``: the env steps after
+  which the LGR was scored on the paper's goals and before which on blx's old ones (a run resumed
+  across session 41, ``runs.lgr_goals_switch``), marked in the LGR panels."""
   plt = _pyplot()
   keys = [k for p in CURVE_PATTERNS for k in (history[0] if history else {}) if re.match(p, k)]
   keys = list(dict.fromkeys(keys))
@@ -138,7 +140,12 @@ def training_curves(history: list[dict], path: str, *, titles: dict[str, str] | 
         ax.fill_between(steps, values.min(1), values.max(1), color=f"C{i}", alpha=0.2)
     if agents:
       ax.legend(fontsize=7, title="agent", title_fontsize=7)
-    ax.set_title((titles or {}).get(key, key) + (" per agent" if agents else ""), fontsize=9)
+    marked = lgr_goals_from is not None and key.startswith("eval/lgr")
+    if marked:
+      # the two sides scored other goals: the curve's step there is the goals', not the policy's
+      ax.axvline(lgr_goals_from, color="0.3", linestyle="--", linewidth=0.8)
+    ax.set_title((titles or {}).get(key, key) + (" per agent" if agents else "")
+                 + ("\n(left of the dashed line: blx's old goals)" if marked else ""), fontsize=9)
     ax.set_xlabel("env steps", fontsize=8)
     ax.xaxis.set_major_formatter(_steps_formatter())
     ax.set_ylabel(curve_ylabel(key), fontsize=8)
@@ -322,15 +329,18 @@ def feature_labels(env, indices) -> list[str]:
   return [names.get(int(i), f"obs[{int(i)}]") for i in indices]
 
 
-def write_all(run, history: list[dict], *, seed_index: int = 0, key_seed: int = 0) -> list[str]:
-  """Writes every plot of the run directory for one seed; returns the paths written."""
+def write_all(run, history: list[dict], *, seed_index: int = 0, key_seed: int = 0,
+              lgr_goals_from: float | None = None) -> list[str]:
+  """Writes every plot of the run directory for one seed; returns the paths written.
+  ``lgr_goals_from`` as :func:`training_curves`."""
   out_dir = os.path.join(run.directory, "plots")
   os.makedirs(out_dir, exist_ok=True)
   written = []
   if history:
     path = os.path.join(out_dir, "training_curves.png")
     training_curves(history, path, titles=curve_titles(history[0], run.objective),
-                    title=f"{run.objective.name} on {run.spec.env}: training curves")
+                    title=f"{run.objective.name} on {run.spec.env}: training curves",
+                    lgr_goals_from=lgr_goals_from)
     written.append(path)
   if run.params is None:
     return written

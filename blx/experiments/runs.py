@@ -111,10 +111,11 @@ def this_machine(from_env_steps: float = 0.0) -> Segment:
                 "mujoco-mjx": version("mujoco-mjx"), "blx": blx.__version__})
 
 
-def read_provenance(directory: str) -> list[Segment]:
+def read_provenance(directory: str, filename: str = PROVENANCE) -> list[Segment]:
   """The segments of the run in ``directory``, in order; ``[]`` for a run trained before blx
-  recorded them (session 31), whose machines only the notes beside it name."""
-  path = os.path.join(directory, PROVENANCE)
+  recorded them (session 31), whose machines only the notes beside it name. ``filename``: the
+  file's name where a run's files were committed under a prefix (``cdiayn_provenance.json``)."""
+  path = os.path.join(directory, filename)
   if not os.path.exists(path):
     return []
   names = {field.name for field in dataclasses.fields(Segment)}
@@ -459,8 +460,21 @@ def train_run(spec: RunSpec, directory: str, *, resume: bool = False, progress=T
   run = Run(directory, spec, env, objective, config, result.params, result.policy,
             {"history": result.metrics})
   run.meta["eval"] = write_eval(run)
-  run.meta["plots"] = plots.write_all(run, result.metrics)
+  run.meta["plots"] = plots.write_all(run, result.metrics,
+                                      lgr_goals_from=lgr_goals_switch(segments))
   return run
+
+
+def lgr_goals_switch(segments: list[Segment]) -> float | None:
+  """The env steps after which a run's evaluations scored the LGR on the paper's goals where its
+  earlier ones did not (a run begun before session 41, or before blx recorded provenance, and
+  resumed after); None where its goals never changed."""
+  if segments and segments[0].lgr_goals == "braxlines" and segments[0].from_env_steps > 0:
+    return segments[0].from_env_steps  # the steps before it: no record, so the old goals
+  for before, segment in zip(segments, segments[1:]):
+    if segment.lgr_goals == "braxlines" and before.lgr_goals != "braxlines":
+      return before.to_env_steps
+  return None
 
 
 def write_eval(run: Run) -> dict:

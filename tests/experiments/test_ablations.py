@@ -730,3 +730,68 @@ def test_a_reference_of_one_objective_faces_only_the_arms_of_that_objective(tmp_
   wall = table.split("Wall time")[1].split("\n\nEach")[0]
   assert f"| AIRL row (reference) | {key} | 2.050 | 0.00 M | 100 s |" in wall
   assert f"| GAIL row (reference) | {key} | 1.050 | not reached |" in wall
+
+
+def test_an_lgr_not_on_the_papers_goals_is_its_own_metric_never_tested_beside_one_that_is(
+    tmp_path):
+  from blx.experiments import runs
+
+  def segment(to, goals):
+    return runs.Segment("2026-11-27T00:00:00Z", 0.0, to, "H200", "gpu", 1, {}, lgr_goals=goals)
+
+  other = ablations.other_goals("eval/lgr")
+  assert other == "eval/lgr" + ablations.paper_tables.OTHER_GOALS
+  assert ablations.with_other_goals(("eval/mi", "eval/lgr")) == ("eval/mi", "eval/lgr", other)
+  # a run resumed by a blx that draws the paper's goals: the evaluations up to 2,000 steps were on
+  # the old goals (a segment without lgr_goals), those after on the paper's; none recorded: old
+  rows = [{"seed": 0, "env_steps": step, "eval/mi": 1.0, "eval/lgr": lgr}
+          for step, lgr in ((1000, 2.0), (2000, 2.1), (3000, 0.9))]
+  moved = ablations.with_lgr_goals(rows, [segment(2000, None), segment(3000, "braxlines")])
+  assert [(r.get("eval/lgr"), r.get(other)) for r in moved] == [(None, 2.0), (None, 2.1),
+                                                               (0.9, None)]
+  assert all(r["eval/mi"] == 1.0 for r in moved)
+  assert all(other in r for r in ablations.with_lgr_goals(rows, []))
+  # the finals: an eval.json that does not record the paper's goals keeps its LGR apart
+  old = {"objective": "diayn", "per_seed": {"eval/mi": [1.0, 1.1], "eval/lgr": [2.0, 2.2]}}
+  new = {"objective": "diayn", "per_seed": {"eval/mi": [0.5, 0.6], "eval/lgr": [0.8, 0.9]},
+         "evaluated_on": {"lgr_goals": "braxlines"}}
+  assert ablations.final_with_lgr_goals(new) == new
+  assert set(ablations.final_with_lgr_goals(old)["per_seed"]) == {"eval/mi", other}
+  # a study whose first arm is on the old goals and its second on the paper's: MI is tested, the
+  # two LGRs are tabulated apart, and neither is tested against the other
+  study = ablations.STUDIES["skills"]
+  spec = ablations.spec(study, "ant", 2, steps=3000)
+  names = [name for name, _ in sweep.expand(spec)][:2]
+  for name, final, segments in ((names[0], old, [segment(3000, None)]),
+                                (names[1], new, [segment(3000, "braxlines")])):
+    (tmp_path / name).mkdir()
+    (tmp_path / name / "eval.json").write_text(json.dumps(final))
+    with open(tmp_path / name / "metrics.csv", "w", newline="") as f:
+      w = csv.DictWriter(f, ["seed", "env_steps", "eval/mi", "eval/lgr"])
+      w.writeheader()
+      w.writerows([{"seed": s, "env_steps": 3000, "eval/mi": 1.0 + s, "eval/lgr": 2.0 + s}
+                   for s in (0, 1)])
+    runs._write_provenance(str(tmp_path / name), segments)
+  table = ablations.report("skills", study, str(tmp_path), spec)
+  finals = table.split("\n\n")[0].splitlines()
+  first, second = (study.label(*sweep.expand(spec)[i]) for i in (0, 1))
+  mi = [r for r in finals if r.startswith(f"| {second} | eval/mi |")]
+  assert len(mi) == 1 and mi[0].endswith("| -7.07 | 0.019 |")  # tested against the first arm
+  assert [r for r in finals if "eval/lgr" in r] == [
+      f"| {first} | {other} | 2.100 ± 0.100 (2) |  |  |",
+      f"| {second} | eval/lgr | 0.850 ± 0.050 (2) |  |  |"]
+  assert os.path.getsize(tmp_path / "curves.png") > 10_000
+  # a reference committed under a prefix reads its prefix's provenance: its LGR from 2,000 steps on
+  # was on the paper's goals
+  _write_metrics(tmp_path / "row_metrics.csv",
+                 {(s, step): 1.0 for s in (0, 1) for step in (1000, 3000)}, key="eval/lgr")
+  runs._write_provenance(str(tmp_path), [segment(2000, None), segment(3000, "braxlines")])
+  os.replace(tmp_path / runs.PROVENANCE, tmp_path / "row_provenance.json")
+  reference = ablations.read_reference("row", str(tmp_path / "row_metrics.csv"), ("eval/lgr",))
+  assert [r["env_steps"] for r in reference.rows if "eval/lgr" in r] == ["3000"] * 2
+  assert len(reference.segments) == 2
+  # against a reference that scored the LGR on the old goals only, an arm's LGR on the paper's
+  # goals is not set beside it
+  rows = ablations.against({"arm": moved}, "old row", ablations.with_lgr_goals(rows, []),
+                           ("eval/lgr",))
+  assert rows[2] == "| arm | eval/lgr | 0.00 M | 0.900 ± 0.000 (1) | no eval/lgr |  |  |"

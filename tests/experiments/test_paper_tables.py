@@ -2,6 +2,7 @@
 verdicts that compare blx with them."""
 
 import csv
+import dataclasses
 import json
 import math
 import os
@@ -292,10 +293,13 @@ def test_progress_reads_committed_rows_and_draws_each_against_the_paper(tmp_path
   # segment that drew the partitionable goals up to 1 M steps, and one that drew the paper's.
   note = "| -eval/lgr" + paper_tables.OTHER_GOALS + " | -2.100 ± 0.100 (2) |"
   assert note in text
+  from blx.experiments import runs
+  segment = runs.Segment("2026-11-27T00:00:00Z", 0.0, 5e5, "H200", "gpu", 1, {},
+                         lgr_goals="braxlines")
   for goals, named in (("partitionable", True), ("braxlines", False)):
-    (rows / "diayn_provenance.json").write_text(json.dumps({"segments": [
-        {"from_env_steps": 0.0, "to_env_steps": 5e5, "lgr_goals": "braxlines"},
-        {"from_env_steps": 5e5, "to_env_steps": 1e6, "lgr_goals": goals}]}))
+    runs._write_provenance(str(rows), [segment, dataclasses.replace(
+        segment, from_env_steps=5e5, to_env_steps=1e6, lgr_goals=goals)])
+    os.replace(rows / runs.PROVENANCE, rows / "diayn_provenance.json")
     assert (note in paper_tables.progress(str(rows))) == named
   assert note not in paper_tables.progress(str(tmp_path / "hc_gail"))  # D-min: no LGR
   png = tmp_path / "progress.png"
@@ -303,6 +307,12 @@ def test_progress_reads_committed_rows_and_draws_each_against_the_paper(tmp_path
   assert titles == ["halfcheetah diayn; Braxlines' window"] * 2 + [
       "halfcheetah diayn; blx's window", "halfcheetah gail, under training; blx's window"]
   assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+  # an LGR on blx's old goals is drawn faded, and its panel says so
+  runs._write_provenance(str(rows), [dataclasses.replace(segment, to_env_steps=1e6,
+                                                         lgr_goals=None)])
+  os.replace(rows / runs.PROVENANCE, rows / "diayn_provenance.json")
+  assert paper_tables.draw_progress(str(png), str(tmp_path))[2] == (
+      "halfcheetah diayn; blx's window; faded: blx's old goals, not the paper's")
   with pytest.raises(ValueError, match="nothing to draw under .*push"):
     paper_tables.draw_progress(str(png), str(tmp_path / "push"))
   monkeypatch.setattr("sys.argv", ["paper_tables.py", "--plot", str(png)])

@@ -43,6 +43,35 @@ def test_curve_panels_say_what_they_measure_and_what_the_band_is(tmp_path):
   assert path.stat().st_size > 0
 
 
+def test_a_run_resumed_across_the_lgr_goals_change_has_it_marked_in_its_lgr_panel(tmp_path,
+                                                                                 monkeypatch):
+  import matplotlib.axes
+
+  from blx.experiments import runs
+
+  def segment(start, end, goals):
+    return runs.Segment("2026-11-27T00:00:00Z", start, end, "H200", "gpu", 1, {}, lgr_goals=goals)
+
+  # begun before session 41 (no lgr_goals), resumed after; begun after; begun before provenance
+  assert runs.lgr_goals_switch([segment(0, 2e6, None), segment(2e6, 3e6, "braxlines")]) == 2e6
+  assert runs.lgr_goals_switch([segment(0, 3e6, "braxlines")]) is None
+  assert runs.lgr_goals_switch([segment(0, 3e6, None)]) is None
+  assert runs.lgr_goals_switch([segment(1e6, 3e6, "braxlines")]) == 1e6
+  assert runs.lgr_goals_switch([]) is None
+  lines = []
+  real = matplotlib.axes.Axes.axvline
+  monkeypatch.setattr(matplotlib.axes.Axes, "axvline",
+                      lambda ax, x, **kw: lines.append((ax, x)) or real(ax, x, **kw))
+  history = [{"env_steps": 1e6 * (i + 1), "eval/mi": [0.1 * i], "eval/lgr": [2.0 - i]}
+             for i in range(3)]
+  plots.training_curves(history, str(tmp_path / "curves.png"), lgr_goals_from=2e6)
+  assert [(ax.get_title(), x) for ax, x in lines] == [  # that panel only, which says so
+      ("eval/lgr\n(left of the dashed line: blx's old goals)", 2e6)]
+  lines.clear()
+  plots.training_curves(history, str(tmp_path / "curves.png"))
+  assert lines == []
+
+
 @pytest.mark.parametrize("key, lengths, bottom", [
     ("eval/episode_length", [1000.0, 1000.0, 999.8], 0.0),  # episodes (nearly) all to the end
     ("eval/episode_length", [240.0, 300.0, 360.0], 0.0),
