@@ -37,9 +37,10 @@ def pursuit():
 
 
 def episodes(env, trainer, params, key, *, random=None, scripted_pursuer=False, n=64):
-  """Catch rate and mean episode length (time to catch; 50 = never caught) of ``n`` episodes with
-  sampled actions; ``random`` replaces that agent's actions by uniform noise, ``scripted_pursuer``
-  sends the pursuer straight at the evader at full speed."""
+  """Catch rate, mean episode length (time to catch; 50 = never caught) and mean distance between
+  the two (over each episode's steps, then over episodes: what the pursuer's reward is the minus
+  of) of ``n`` episodes with sampled actions; ``random`` replaces that agent's actions by uniform
+  noise, ``scripted_pursuer`` sends the pursuer straight at the evader at full speed."""
   base = envs.unwrap(env)
   idx, vec = base.agent_action_indices, base.obs_layout[f"{EDGE}/root_vec_pos[0,1]"]
   state = jax.vmap(env.reset)(jax.random.split(key, n))
@@ -59,28 +60,39 @@ def episodes(env, trainer, params, key, *, random=None, scripted_pursuer=False, 
   _, (dist, done) = envs.rollout(env, act, state, 50, key, record)
   alive = envs.alive_before(done)
   caught = ((dist < 0.5) & (alive > 0)).any(0)
-  return float(caught.mean()), float(alive.sum(0).mean())
+  distance = (dist * alive).sum(0) / jnp.maximum(alive.sum(0), 1)
+  return float(caught.mean()), float(alive.sum(0).mean()), float(distance.mean())
 
 
 def test_mappo_learns_to_pursue_and_to_evade():
-  # 120 k steps, about 30 s on 2 CPU cores. Baselines, measured in the same scene: a pursuer acting
-  # at random never catches the trained evader (catch rate 0), and the pursuer that runs straight
-  # at the evader catches an evader acting at random after 13 steps. Seeds 0-2 gave catch rates
-  # 0.91, 1.0 and 0.39 for the trained pair, and 38, 27 and 41 steps for the trained evader against
-  # the scripted pursuer.
+  # 120 k steps, three seeds vmapped. One seed's pursuer is no verdict: in this arms race it loses
+  # in some seeds, and which ones changes with the CPU's float rounding (seed 0 caught its evader
+  # in 91 % of episodes on one machine and in none on another, with the same code). Baselines,
+  # measured in the same scene, per seed: a pursuer acting at random keeps about 6-8 m from the
+  # trained evader (the pair start 3 m apart), and the pursuer that runs straight at the evader
+  # catches an evader acting at random after 13 steps. Seeds 0-4 on an Intel Xeon under the tests'
+  # XLA flags: the trained pursuer keeps 2.3, 1.5, 1.7, 1.9 and 10.3 m from the trained evader
+  # (against a random pursuer's 8.4, 7.5, 8.0, 5.8 and 7.8), and the trained evader lasts 50, 42,
+  # 30, 38 and 50 steps against the scripted pursuer.
   env = pursuit()
   config = training.ppo_defaults("point", num_timesteps=120_000, num_evals=2, reward_scaling=0.1,
                                  entropy_cost=0.01)
-  result = training.train(env, task(), config, seeds=(0,), progress=False)
+  seeds = (0, 1, 2)
+  result = training.train(env, task(), config, seeds=seeds, progress=False)
   trainer = training.make_trainer(env, task(), config)
-  params = jax.tree.map(lambda x: x[0], result.params)
   key = jax.random.PRNGKey(1)
-  trained, _ = episodes(env, trainer, params, key)
-  random_pursuer, _ = episodes(env, trainer, params, key, random="pursuer")
-  assert trained >= random_pursuer + 0.3, (trained, random_pursuer)
-  _, evader_time = episodes(env, trainer, params, key, scripted_pursuer=True)
-  _, random_time = episodes(env, trainer, params, key, scripted_pursuer=True, random="evader")
-  assert evader_time >= random_time + 10, (evader_time, random_time)
+  closer, longer = [], []
+  for i in range(len(seeds)):
+    params = jax.tree.map(lambda x, i=i: x[i], result.params)
+    trained = episodes(env, trainer, params, key)[2]
+    random_pursuer = episodes(env, trainer, params, key, random="pursuer")[2]
+    closer.append(trained / random_pursuer)
+    evader_time = episodes(env, trainer, params, key, scripted_pursuer=True)[1]
+    random_time = episodes(env, trainer, params, key, scripted_pursuer=True, random="evader")[1]
+    longer.append(evader_time - random_time)
+  # the pursuers learned to close in on the evader they trained with, and the evaders to flee
+  assert np.median(closer) <= 0.5, closer
+  assert np.median(longer) >= 10, longer
   last = result.metrics[-1]
   assert {"train/reward/evader", "train/reward/pursuer", "eval/episode_reward/evader",
           "eval/episode_reward/pursuer", "eval/episode_score/pursuer"} <= set(last)
