@@ -274,23 +274,16 @@ def with_other_goals(metrics: tuple[str, ...]) -> tuple[str, ...]:
                                                  else (key,)))
 
 
-def _on_papers_goals(segments: list[runs.Segment] | tuple, env_steps: float) -> bool:
-  """Whether the evaluation at ``env_steps`` scored the LGR on the paper's goals: the first
-  provenance segment that reached those steps says "braxlines"; False where none did (a run from
-  before blx recorded provenance, whose goals were blx's old ones)."""
-  for segment in segments:
-    if env_steps <= segment.to_env_steps:
-      return segment.lgr_goals == "braxlines"
-  return False
-
-
 def with_lgr_goals(rows: list[dict], segments: list[runs.Segment] | tuple) -> list[dict]:
-  """metrics.csv rows with each LGR that was not scored on the paper's goals (by the run's
-  provenance ``segments``: ``_on_papers_goals``) moved to ``other_goals`` of its key."""
+  """metrics.csv rows with each LGR that was not scored on the paper's goals moved to
+  ``other_goals`` of its key: the run's provenance segment that logged it
+  (``runs.segment_at``) does not say "braxlines", or no segment did (steps trained before blx
+  recorded provenance, whose goals were blx's old ones)."""
   out = []
   for row in rows:
+    segment = runs.segment_at(segments, float(row["env_steps"]))
     if (any(row.get(k) not in (None, "") for k in LGR_KEYS)
-        and not _on_papers_goals(segments, float(row["env_steps"]))):
+        and (segment is None or segment.lgr_goals != "braxlines")):
       row = {other_goals(k) if k in LGR_KEYS else k: v for k, v in row.items()}
     out.append(row)
   return out

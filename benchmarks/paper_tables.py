@@ -260,17 +260,6 @@ def _segments(name: str) -> list[runs.Segment]:
   return []
 
 
-def lgr_goals_at(name: str, env_steps: float) -> str | None:
-  """How the LGR goals of the evaluation at ``env_steps`` of the run ``name`` (as ``logged``
-  names it) were drawn: the ``lgr_goals`` of the provenance segment that reached those steps
-  (``_segments``); None where no segment says (runs before session 41 drew the partitionable
-  goals)."""
-  for segment in _segments(name):
-    if segment.from_env_steps < env_steps <= segment.to_env_steps:
-      return segment.lgr_goals
-  return None
-
-
 def progress(*directories: str) -> str:
   """Where rows under training stand: for every run under the directories (``logged``) that logged
   the paper's metrics during training (``--eval-metrics``), the verdicts of its last evaluation
@@ -308,8 +297,11 @@ def progress(*directories: str) -> str:
              if finished else "under training")
     out += [f"{name}: {objective} on {env}, {state}; its last evaluation every seed reached, at "
             f"{last / 1e6:.1f} M{of} env steps per seed:", ""]
-    out += VERDICT_HEADER + verdicts(dict(objective=objective, env=env, per_seed=per_seed,
-                                          evaluated_on={"lgr_goals": lgr_goals_at(name, last)}))
+    segments = _segments(name)
+    logged_by = runs.segment_at(segments, last)  # its goals: the LGR's label
+    out += VERDICT_HEADER + verdicts(dict(
+        objective=objective, env=env, per_seed=per_seed,
+        evaluated_on={"lgr_goals": logged_by.lgr_goals if logged_by else None}))
     balance = ablations.by_step(ablations.with_mode_balance(rows), ablations.BALANCE).get(last)
     if balance:  # D-min against a target of several modes
       mu, sd = mean_std(list(balance.values()))
@@ -317,7 +309,7 @@ def progress(*directories: str) -> str:
       out += ["", f"Mode balance there (1: an even split; 0: one mode): {mu:.2f} ± {sd:.2f}; "
                   f"{one} of {len(balance)} seeds on one mode (balance below {ONE_MODE:g})."]
     # the paper's value is reached on the paper's goals only (an LGR on others is set apart)
-    rows = ablations.with_lgr_goals(rows, _segments(name))
+    rows = ablations.with_lgr_goals(rows, segments)
     out += [""] + ablations.time_to_paper({objective: (objective, rows)}, env,
                                           tuple(k for k in keys if k in ablations.BETTER)) + [""]
   return "\n".join(out)

@@ -465,6 +465,16 @@ def train_run(spec: RunSpec, directory: str, *, resume: bool = False, progress=T
   return run
 
 
+def segment_at(segments: list[Segment] | tuple, env_steps: float) -> Segment | None:
+  """The segment whose process logged the evaluation at ``env_steps`` (``from_env_steps <
+  env_steps <= to_env_steps``); None where none did (steps trained before blx recorded
+  provenance, or no provenance)."""
+  for segment in segments:
+    if segment.from_env_steps < env_steps <= segment.to_env_steps:
+      return segment
+  return None
+
+
 def lgr_goals_switch(segments: list[Segment]) -> float | None:
   """The env steps after which a run's evaluations scored the LGR on the paper's goals where its
   earlier ones did not (a run begun before session 41, or before blx recorded provenance, and

@@ -751,6 +751,10 @@ def test_an_lgr_not_on_the_papers_goals_is_its_own_metric_never_tested_beside_on
                                                                (0.9, None)]
   assert all(r["eval/mi"] == 1.0 for r in moved)
   assert all(other in r for r in ablations.with_lgr_goals(rows, []))
+  # a run begun before blx recorded provenance and resumed with the paper's goals at 2,000 steps:
+  # the evaluations before it have no segment, so they were on the old goals
+  resumed = dataclasses.replace(segment(3000, "braxlines"), from_env_steps=2000.0)
+  assert [other in r for r in ablations.with_lgr_goals(rows, [resumed])] == [True, True, False]
   # the finals: an eval.json that does not record the paper's goals keeps its LGR apart
   old = {"objective": "diayn", "per_seed": {"eval/mi": [1.0, 1.1], "eval/lgr": [2.0, 2.2]}}
   new = {"objective": "diayn", "per_seed": {"eval/mi": [0.5, 0.6], "eval/lgr": [0.8, 0.9]},
