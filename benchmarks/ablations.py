@@ -52,8 +52,11 @@ setting; up to three, each its own ``--reference``): its curve is drawn over the
 each arm's last evaluation is tested against the reference's at the same env steps. So an arm run
 for a fraction of a row's steps is compared with the row where the row was. Where the reference
 has its eval.json, each arm's final evaluation is also tested against it: so a study whose row has
-run before (``--arm`` the other values) is compared with that row. A reference whose config.json
-names an objective faces only that objective's arms (the AIRL row, the AIRL arms).
+run before (``--arm`` the other values) is compared with that row. A reference trained without
+``--eval-metrics`` (the Humanoid DIAYN row, the SN arm of ``sn_diayn --env humanoid``) has no
+curves: it is drawn as its final evaluation, a point, and compared by its eval.json only. A
+reference whose config.json names an objective faces only that objective's arms (the AIRL row,
+the AIRL arms).
 """
 
 from __future__ import annotations
@@ -577,8 +580,10 @@ def facing(reference: Reference, objectives: dict[str, str]) -> list[str]:
 
 def read_reference(name: str, path: str, metrics: tuple[str, ...]) -> Reference:
   """The run at ``path`` (a run directory or its metrics.csv) as a ``Reference``, with the
-  eval.json beside its metrics.csv where there is one; refuses one that logs none of ``metrics``
-  (a run trained without ``--eval-metrics``). A run's files committed under a prefix, as the
+  eval.json beside its metrics.csv where there is one. A run that logged none of ``metrics``
+  during training (one trained without ``--eval-metrics``, as the rows before session 17) is taken
+  where its eval.json scores one of them: such a reference is compared by final evaluations only
+  (``logs_curves``); one with neither is refused. A run's files committed under a prefix, as the
   paper's rows in ``benchmarks/paper/`` (``airl_metrics.csv``), take the eval.json and the
   provenance of their prefix (``airl_eval.json``, ``airl_provenance.json``). An LGR not scored on
   the paper's goals is kept under ``other_goals`` of its key (``with_lgr_goals``)."""
@@ -587,14 +592,16 @@ def read_reference(name: str, path: str, metrics: tuple[str, ...]) -> Reference:
     raise ValueError(f"{path}: not a run directory with metrics.csv, nor a metrics.csv file")
   with open(csv_path) as f:
     rows = with_mode_balance(list(csv.DictReader(f)))
-  if not any(by_step(rows, key) for key in metrics):
-    raise ValueError(f"{csv_path}: logs none of {list(metrics)} (train it with --eval-metrics)")
   final, base = None, os.path.basename(csv_path)
   prefix = base[:-len("metrics.csv")] if base.endswith("metrics.csv") else None
   eval_path = os.path.join(os.path.dirname(csv_path), f"{prefix}eval.json")
   if prefix is not None and os.path.isfile(eval_path):
     with open(eval_path) as f:
       final = final_lgr_and_balance(json.load(f))
+  scored = [key for key in metrics if key in (final or {}).get("per_seed", {})]
+  if not any(by_step(rows, key) for key in metrics) and not scored:
+    raise ValueError(f"{csv_path}: logs none of {list(metrics)} during training (train it with "
+                     "--eval-metrics), and has no eval.json beside it that scores one of them")
   segments = (runs.read_provenance(os.path.dirname(csv_path), f"{prefix}{runs.PROVENANCE}")
               if prefix is not None else [])
   rows = with_lgr_goals(rows, segments)
@@ -605,6 +612,18 @@ def read_reference(name: str, path: str, metrics: tuple[str, ...]) -> Reference:
       objective = json.load(f).get("objective", objective)
   return Reference(name, rows, final, tuple(segments),
                    objective if isinstance(objective, str) else None)
+
+
+def logs_curves(reference: Reference, metrics: tuple[str, ...]) -> bool:
+  """Whether ``reference`` logged any of ``metrics`` during training: one that did not (trained
+  without ``--eval-metrics``) is drawn as its final evaluation, a point at the env steps it
+  trained, and compared by that alone."""
+  return any(by_step(reference.rows, key) for key in metrics)
+
+
+def reference_steps(reference: Reference) -> float:
+  """The env steps per seed ``reference`` trained (its metrics.csv's last; 0 where none)."""
+  return max((float(r["env_steps"]) for r in reference.rows if r.get("env_steps")), default=0.0)
 
 
 REFERENCE_STYLES = ("--", ":", "-.")  # one line style per reference, all dark grey
@@ -679,6 +698,15 @@ def report(study_name: str, study: Study, directory: str, sweep_spec: dict,
                         [m + s for m, s in zip(mean, std)], color=colour, alpha=0.2 * alpha)
         faded |= alpha < 1.0
       for reference, style in zip(references, REFERENCE_STYLES):
+        if not logs_curves(reference, with_other_goals(study.metrics)):  # its final, a point
+          values = (reference.final or {}).get("per_seed", {}).get(shown_key)
+          if values:
+            m, d = paper_tables.mean_std(values)
+            ax.errorbar([reference_steps(reference) / 1e6], [m], yerr=[d], fmt="D", color="0.2",
+                        alpha=alpha, capsize=3, markersize=5,
+                        label=f"{reference.name}: final evaluation" if alpha == 1.0 else None)
+            faded |= alpha < 1.0
+          continue
         steps, mean, std = curve(reference.rows, shown_key)
         shown = [(s / 1e6, m, d) for s, m, d in zip(steps, mean, std) if s <= span]
         if shown:
@@ -720,7 +748,7 @@ def report(study_name: str, study: Study, directory: str, sweep_spec: dict,
   # first arm's of the objective each faces), named as such: they ran in another process, perhaps
   # on another machine
   timed = {f"{r.name} (reference)": (objectives[facing(r, objectives)[0]], r.rows)
-           for r in references if r.rows and _timed(r.rows)}
+           for r in references if logs_curves(r, metrics) and _timed(r.rows)}
   with_timed = {**by_label, **timed}
   # the devices column, once any of them recorded where it ran
   ran = {**{labels[n]: devices[n] for n in curves},
@@ -743,15 +771,20 @@ def report(study_name: str, study: Study, directory: str, sweep_spec: dict,
     faced = facing(reference, objectives)
     whose = ("Each arm's" if len(faced) == len(curves)
              else f"Each {reference.objective} arm's")  # a reference of one objective of several
-    rows = against({labels[n]: curves[n] for n in faced}, reference.name, reference.rows,
-                   metrics)
-    table += (f"\n\n{whose} last evaluation during training against {reference.name} at the "
-              "same env steps:\n\n" + "\n".join(rows))
+    if logs_curves(reference, metrics):
+      rows = against({labels[n]: curves[n] for n in faced}, reference.name, reference.rows,
+                     metrics)
+      table += (f"\n\n{whose} last evaluation during training against {reference.name} at the "
+                "same env steps:\n\n" + "\n".join(rows))
+    else:
+      table += (f"\n\n{reference.name} logged none of the metrics during training (it was "
+                "trained without --eval-metrics): it is drawn as its final evaluation, and "
+                "compared by final evaluations only.")
     finals = {labels[n]: arm for n, arm in arms.items() if n in faced}
     if reference.final is None or not finals:
       continue
     # a reference may have trained another budget (e.g. the full row of a shorter study): say so
-    ended = max((float(r["env_steps"]) for r in reference.rows if r.get("env_steps")), default=0.0)
+    ended = reference_steps(reference)
     notes = [f"the reference's at {ended / 1e6:.2f} M env steps, the arms' at {trained / 1e6:.2f} M"
              ] if abs(ended - trained) > 0.01 * trained else []
     if {arm.get("objective") for arm in finals.values()} - {reference.final.get("objective")}:
@@ -783,7 +816,8 @@ def main():
   parser.add_argument("--reference", action="append", default=[], metavar="NAME=PATH",
                       help="another run (its directory or metrics.csv, trained with "
                            "--eval-metrics) to draw beside the arms and compare with each arm's "
-                           "last evaluation at the same env steps, e.g. a finished row; up to "
+                           "last evaluation at the same env steps, e.g. a finished row (one "
+                           "trained without it: by its eval.json only); up to "
                            f"{len(REFERENCE_STYLES)}, each its own --reference")
   parser.add_argument("--out", default="sweeps/ablations")
   cli.add_eval_protocol_flag(parser)  # the arms always log the metrics during training

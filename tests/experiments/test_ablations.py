@@ -348,6 +348,47 @@ def test_read_reference_takes_a_run_directory_or_its_csv_and_refuses_one_without
   assert ref.rows[0]["eval/mi"] == "0.7" and ref.final["per_seed"]["eval/mi"] == [2.0, 2.2]
 
 
+def test_a_reference_trained_without_eval_metrics_is_taken_by_its_eval_json_alone(tmp_path,
+                                                                                  monkeypatch):
+  # a row trained before --eval-metrics (the Humanoid DIAYN row): its metrics.csv logs no eval/mi
+  _write_metrics(tmp_path / "diayn_metrics.csv", {(0, 9000): 900.0, (1, 9000): 950.0},
+                 key="eval/episode_reward")
+  (tmp_path / "diayn_eval.json").write_text(json.dumps(_arm("diayn", [0.2, 0.3, 0.4])))
+  ref = ablations.read_reference("row", str(tmp_path / "diayn_metrics.csv"), ("eval/mi",))
+  assert ref.final["per_seed"]["eval/mi"] == [0.2, 0.3, 0.4]
+  assert not ablations.logs_curves(ref, ("eval/mi",))
+  # its eval.json scores none of the study's metrics: nothing to compare, refused
+  with pytest.raises(ValueError, match=r"logs none of \['eval/energy_distance'\] during "
+                     r"training .*no eval.json beside it that scores one of them"):
+    ablations.read_reference("row", str(tmp_path / "diayn_metrics.csv"),
+                             ("eval/energy_distance",))
+  # the report draws it as its final evaluation, a point, and tests the arms' finals against it,
+  # not their curves
+  study = ablations.STUDIES["step_diayn"]
+  spec = ablations.spec(study, "halfcheetah", 2, steps=2000, config={"num_evals": 2})
+  name = sweep.expand(spec)[0][0]
+  (tmp_path / "study" / name).mkdir(parents=True)
+  _write_metrics(tmp_path / "study" / name / "metrics.csv", {(0, 2000): 1.0, (1, 2000): 1.2})
+  (tmp_path / "study" / name / "eval.json").write_text(json.dumps(_arm("diayn", [1.0, 1.2])))
+  import matplotlib.axes
+  points, errorbar = [], matplotlib.axes.Axes.errorbar
+  def spy(self, x, y, *a, **k):
+    points.append((k.get("label"), list(x), list(y), list(k["yerr"])))
+    return errorbar(self, x, y, *a, **k)
+  monkeypatch.setattr(matplotlib.axes.Axes, "errorbar", spy)
+  table = ablations.report("step_diayn", study, str(tmp_path / "study"), spec, [ref])
+  assert points == [("row: final evaluation", [0.009], [pytest.approx(0.3)],
+                     [pytest.approx((0.02 / 3) ** 0.5)])]  # at its 9,000 steps, MI only
+  assert "against row at the same env steps" not in table
+  assert "row logged none of the metrics during training" in table
+  from scipy import stats
+  want = stats.ttest_ind([1.0, 1.2], [0.2, 0.3, 0.4], equal_var=False)
+  tail = table.split("The final evaluations")[1]
+  assert "first row's (the reference's at 0.01 M env steps, the arms' at 0.00 M)" in tail
+  assert (f"| blx's step: 16 x 3.125 ms | eval/mi | 1.100 ± 0.100 (2) | {want.statistic:+.2f} "
+          f"| {want.pvalue:.3f} |") in tail
+
+
 def test_report_draws_the_reference_and_compares_the_arms_with_it(tmp_path):
   study = ablations.STUDIES["step_diayn"]
   spec = ablations.spec(study, "halfcheetah", 2, steps=2000, config={"num_evals": 2})
