@@ -581,7 +581,7 @@ def facing(reference: Reference, objectives: dict[str, str]) -> list[str]:
 def read_reference(name: str, path: str, metrics: tuple[str, ...]) -> Reference:
   """The run at ``path`` (a run directory or its metrics.csv) as a ``Reference``, with the
   eval.json beside its metrics.csv where there is one. A run that logged none of ``metrics``
-  during training (one trained without ``--eval-metrics``, as the rows before session 17) is taken
+  during training (one trained without ``--eval-metrics``, as the Humanoid DIAYN row) is taken
   where its eval.json scores one of them: such a reference is compared by final evaluations only
   (``logs_curves``); one with neither is refused. A run's files committed under a prefix, as the
   paper's rows in ``benchmarks/paper/`` (``airl_metrics.csv``), take the eval.json and the
@@ -598,7 +598,7 @@ def read_reference(name: str, path: str, metrics: tuple[str, ...]) -> Reference:
   if prefix is not None and os.path.isfile(eval_path):
     with open(eval_path) as f:
       final = final_lgr_and_balance(json.load(f))
-  scored = [key for key in metrics if key in (final or {}).get("per_seed", {})]
+  scored = [key for key in with_other_goals(metrics) if key in (final or {}).get("per_seed", {})]
   if not any(by_step(rows, key) for key in metrics) and not scored:
     raise ValueError(f"{csv_path}: logs none of {list(metrics)} during training (train it with "
                      "--eval-metrics), and has no eval.json beside it that scores one of them")

@@ -362,6 +362,12 @@ def test_a_reference_trained_without_eval_metrics_is_taken_by_its_eval_json_alon
                      r"training .*no eval.json beside it that scores one of them"):
     ablations.read_reference("row", str(tmp_path / "diayn_metrics.csv"),
                              ("eval/energy_distance",))
+  # an eval.json whose only score is an LGR on blx's old goals (no lgr_goals recorded) is taken too
+  (tmp_path / "old").mkdir()
+  _write_metrics(tmp_path / "old" / "metrics.csv", {(0, 9000): 900.0}, key="eval/episode_reward")
+  (tmp_path / "old" / "eval.json").write_text(json.dumps({"per_seed": {"eval/lgr": [2.0, 2.4]}}))
+  old = ablations.read_reference("old", str(tmp_path / "old"), ("eval/lgr",))
+  assert old.final["per_seed"][ablations.other_goals("eval/lgr")] == [2.0, 2.4]
   # the report draws it as its final evaluation, a point, and tests the arms' finals against it,
   # not their curves
   study = ablations.STUDIES["step_diayn"]
@@ -387,6 +393,18 @@ def test_a_reference_trained_without_eval_metrics_is_taken_by_its_eval_json_alon
   assert "first row's (the reference's at 0.01 M env steps, the arms' at 0.00 M)" in tail
   assert (f"| blx's step: 16 x 3.125 ms | eval/mi | 1.100 ± 0.100 (2) | {want.statistic:+.2f} "
           f"| {want.pvalue:.3f} |") in tail
+  # timed, it still has no curve to time: it does not join the wall-time table, which a lone arm
+  # does not get
+  timed_arm = [{"seed": s, "env_steps": 2000, "time": 20, "eval/mi": 1.0 + 0.2 * s}
+               for s in (0, 1)]
+  with open(tmp_path / "study" / name / "metrics.csv", "w", newline="") as f:
+    w = csv.DictWriter(f, ["seed", "env_steps", "time", "eval/mi"])
+    w.writeheader()
+    w.writerows(timed_arm)
+  timed_ref = dataclasses.replace(ref, rows=[dict(r, time=90) for r in ref.rows])
+  table = ablations.report("step_diayn", study, str(tmp_path / "study"), spec, [timed_ref])
+  assert "first arm's last evaluation" not in table and "a reference ran" not in table
+  assert "The final evaluations" in table
 
 
 def test_report_draws_the_reference_and_compares_the_arms_with_it(tmp_path):
