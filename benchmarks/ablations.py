@@ -677,6 +677,8 @@ def report(study_name: str, study: Study, directory: str, sweep_spec: dict,
       labels[name] += " (unfinished)"
   if not curves:
     raise SystemExit(f"{directory}: no arm of {study_name} has run yet (no metrics.csv)")
+  metrics = with_other_goals(study.metrics)  # the tables' keys: an LGR on other goals its own
+  curved = [logs_curves(r, metrics) for r in references]  # else only a final evaluation
   fig, axes = plt.subplots(1, len(study.metrics), figsize=(5 * len(study.metrics) + 2.4, 3.6),
                            squeeze=False)  # 2.4 inches for the legend beside the panels
   span = max((float(r["env_steps"]) for rows in curves.values() for r in rows), default=0.0)
@@ -697,8 +699,8 @@ def report(study_name: str, study: Study, directory: str, sweep_spec: dict,
         ax.fill_between(x, [m - s for m, s in zip(mean, std)],
                         [m + s for m, s in zip(mean, std)], color=colour, alpha=0.2 * alpha)
         faded |= alpha < 1.0
-      for reference, style in zip(references, REFERENCE_STYLES):
-        if not logs_curves(reference, with_other_goals(study.metrics)):  # its final, a point
+      for reference, style, has_curves in zip(references, REFERENCE_STYLES, curved):
+        if not has_curves:  # its final evaluation, a point
           values = (reference.final or {}).get("per_seed", {}).get(shown_key)
           if values:
             m, d = paper_tables.mean_std(values)
@@ -736,7 +738,6 @@ def report(study_name: str, study: Study, directory: str, sweep_spec: dict,
   fig.savefig(os.path.join(directory, "curves.png"), dpi=120, bbox_inches="tight")
   plt.close(fig)
   labelled = {labels[name]: arm for name, arm in arms.items()}
-  metrics = with_other_goals(study.metrics)  # the tables' keys: an LGR on other goals its own
   table = ("\n".join(compare(labelled, metrics)) if arms
            else "No arm has its final evaluation (eval.json) yet.")
   by_label = {labels[n]: (objectives[n], rows) for n, rows in curves.items()}
@@ -748,7 +749,7 @@ def report(study_name: str, study: Study, directory: str, sweep_spec: dict,
   # first arm's of the objective each faces), named as such: they ran in another process, perhaps
   # on another machine
   timed = {f"{r.name} (reference)": (objectives[facing(r, objectives)[0]], r.rows)
-           for r in references if logs_curves(r, metrics) and _timed(r.rows)}
+           for r, has_curves in zip(references, curved) if has_curves and _timed(r.rows)}
   with_timed = {**by_label, **timed}
   # the devices column, once any of them recorded where it ran
   ran = {**{labels[n]: devices[n] for n in curves},
@@ -767,11 +768,11 @@ def report(study_name: str, study: Study, directory: str, sweep_spec: dict,
               "logged it (the paper's numbers are in that window):\n\n" + "\n".join(to_paper))
   finished = [float(r["env_steps"]) for n in arms for r in curves[n] if r.get("env_steps")]
   trained = max(finished) if finished else None
-  for reference in references:
+  for reference, has_curves in zip(references, curved):
     faced = facing(reference, objectives)
     whose = ("Each arm's" if len(faced) == len(curves)
              else f"Each {reference.objective} arm's")  # a reference of one objective of several
-    if logs_curves(reference, metrics):
+    if has_curves:
       rows = against({labels[n]: curves[n] for n in faced}, reference.name, reference.rows,
                      metrics)
       table += (f"\n\n{whose} last evaluation during training against {reference.name} at the "
