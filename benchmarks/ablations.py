@@ -54,7 +54,8 @@ for a fraction of a row's steps is compared with the row where the row was. Wher
 has its eval.json, each arm's final evaluation is also tested against it: so a study whose row has
 run before (``--arm`` the other values) is compared with that row. A reference trained without
 ``--eval-metrics`` (the Humanoid DIAYN row, the SN arm of ``sn_diayn --env humanoid``) has no
-curves: it is drawn as its final evaluation, a point, and compared by its eval.json only. A
+curves: it is drawn as its final evaluation, a point, beside each finished arm's own (the arms'
+curves may use another protocol than the final evaluation's), and compared by its eval.json only. A
 reference whose config.json names an objective faces only that objective's arms (the AIRL row,
 the AIRL arms).
 """
@@ -699,6 +700,15 @@ def report(study_name: str, study: Study, directory: str, sweep_spec: dict,
         ax.fill_between(x, [m - s for m, s in zip(mean, std)],
                         [m + s for m, s in zip(mean, std)], color=colour, alpha=0.2 * alpha)
         faded |= alpha < 1.0
+        # beside a reference drawn as a point, the arm's own final evaluation is one too, a little
+        # to the right: the curves use the protocol of the evaluations during training, which
+        # need not be the final one's, so only the two points compare like with like
+        values = (arms.get(name) or {}).get("per_seed", {}).get(shown_key)
+        if values and not all(curved):
+          m, d = paper_tables.mean_std(values)
+          ax.errorbar([x[-1] + 0.015 * span / 1e6], [m], yerr=[d], fmt="o", color=colour,
+                      alpha=alpha, capsize=3, markersize=5,
+                      label=f"{labels[name]}: final evaluation" if alpha == 1.0 else None)
       for reference, style, has_curves in zip(references, REFERENCE_STYLES, curved):
         if not has_curves:  # its final evaluation, a point
           values = (reference.final or {}).get("per_seed", {}).get(shown_key)

@@ -383,8 +383,12 @@ def test_a_reference_trained_without_eval_metrics_is_taken_by_its_eval_json_alon
     return errorbar(self, x, y, *a, **k)
   monkeypatch.setattr(matplotlib.axes.Axes, "errorbar", spy)
   table = ablations.report("step_diayn", study, str(tmp_path / "study"), spec, [ref])
-  assert points == [("row: final evaluation", [0.009], [pytest.approx(0.3)],
-                     [pytest.approx((0.02 / 3) ** 0.5)])]  # at its 9,000 steps, MI only
+  # at its 9,000 steps, MI only; beside it the arm's final evaluation, at the arm's last steps
+  # (2,000) moved right by 1.5 % of the arms' span
+  assert points == [("blx's step: 16 x 3.125 ms: final evaluation", [pytest.approx(0.00203)],
+                     [pytest.approx(1.1)], [pytest.approx(0.1)]),
+                    ("row: final evaluation", [0.009], [pytest.approx(0.3)],
+                     [pytest.approx((0.02 / 3) ** 0.5)])]
   assert "against row at the same env steps" not in table
   assert "row logged none of the metrics during training" in table
   from scipy import stats
@@ -407,7 +411,7 @@ def test_a_reference_trained_without_eval_metrics_is_taken_by_its_eval_json_alon
   assert "The final evaluations" in table
 
 
-def test_report_draws_the_reference_and_compares_the_arms_with_it(tmp_path):
+def test_report_draws_the_reference_and_compares_the_arms_with_it(tmp_path, monkeypatch):
   study = ablations.STUDIES["step_diayn"]
   spec = ablations.spec(study, "halfcheetah", 2, steps=2000, config={"num_evals": 2})
   assert all(s.ppo == {"num_evals": 2, "num_timesteps": 2000} for _, s in sweep.expand(spec))
@@ -429,9 +433,14 @@ def test_report_draws_the_reference_and_compares_the_arms_with_it(tmp_path):
   # With the reference's eval.json, each arm's final evaluation is tested against the reference's,
   # whose budget (9,000 steps) the heading names where it is not the arms' (2,000).
   final = _arm("diayn", [0.2, 0.3, 0.4])
+  import matplotlib.axes
+  drawn, errorbar = [], matplotlib.axes.Axes.errorbar
+  monkeypatch.setattr(matplotlib.axes.Axes, "errorbar",
+                      lambda self, *a, **k: drawn.append(k.get("label")) or errorbar(self, *a, **k))
   table = ablations.report("step_diayn", study, str(tmp_path), spec,
                            [ablations.Reference("the row", reference, final)])
   assert "first the row's (the reference's at 0.01 M env steps, the arms' at 0.00 M):" in table
+  assert not drawn  # a reference with curves is compared by curves: no final drawn as a point
   same = ablations.report("step_diayn", study, str(tmp_path), spec, [ablations.Reference(
       "the row", [r for r in reference if r["env_steps"] <= 2000], final)])
   assert "first the row's:" in same and "reference's at" not in same
