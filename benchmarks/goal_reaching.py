@@ -26,9 +26,14 @@ episodes each, actions sampled unless ``--deterministic``:
   (discrete skills also count a goal's distance to the nearer of two neighbouring skills);
 - ``inference_excess`` = ``lgr - best_lgr``: the part of the LGR the inferred latents add;
 - ``reach_low``, ``reach_high``: the lowest and highest candidate mean state, per dimension;
+- ``spread_within``, ``spread_between``: how widely one latent's states spread, split into the
+  part within episodes (the root of the mean of each episode's variance over its steps: a gait's
+  swing) and the part between them (the std of the episodes' means), averaged over the
+  candidates; their squares add up to the variance of the latent's states. The histogram MI
+  (``metrics.particle``) pays for either;
 - per goal (``goals``, ``inferred_latents``, ``reached_mean``, ``reached_std`` over the episodes'
   states, ``goal_lgr``, ``goal_best_lgr``, ``goal_reach``), and per candidate (``candidates``,
-  ``candidate_means``).
+  ``candidate_means``, ``candidate_within_std``, ``candidate_between_std``).
 
 Prints the mean +- std over seeds; writes every per-seed value to ``--out`` (default
 RUN_DIR/goal_reaching.json). ``--plot`` draws every seed's goals against what they reached, and
@@ -74,7 +79,18 @@ def decompose(reached: jax.Array, goals: jax.Array, candidates: jax.Array) -> di
           "reach_low": means.min(0), "reach_high": means.max(0),
           "reached_mean": reached.mean((1, 2)), "reached_std": reached.std((1, 2)),
           "goal_lgr": own, "goal_best_lgr": best, "best_candidate": against.argmin(1),
-          "goal_reach": reach, "candidate_means": means}
+          "goal_reach": reach, "candidate_means": means,
+          **{f"candidate_{k}": v for k, v in spread(candidates).items()}}
+
+
+def spread(states: jax.Array) -> dict:
+  """How widely each latent's states ``[L, M, T, D]`` (M episodes of T scored steps) spread, split
+  by the law of total variance into ``within_std`` (the root of the mean over episodes of each
+  episode's variance over its steps: a gait's swing, or drift within an episode) and
+  ``between_std`` (the std of the episodes' means: each episode at its own place or speed);
+  ``within_std**2 + between_std**2`` is the variance of all M x T states. Each ``[L, D]``."""
+  return {"within_std": jnp.sqrt(states.var(2).mean(1)),
+          "between_std": states.mean(2).std(1)}
 
 
 def seed_goals(run, params, key: jax.Array, goals: jax.Array, episodes: int,
@@ -99,7 +115,16 @@ def seed_goals(run, params, key: jax.Array, goals: jax.Array, episodes: int,
   return out
 
 
-SUMMARY = ("lgr", "best_lgr", "reach_lgr", "inference_excess", "reach_low", "reach_high")
+DECOMPOSED = ("lgr", "best_lgr", "reach_lgr", "inference_excess", "reach_low", "reach_high")
+SUMMARY = DECOMPOSED + ("spread_within", "spread_between")
+
+
+def summary_values(values: dict) -> dict:
+  """The ``SUMMARY`` values per seed from ``seed_goals``' (vmapped over seeds): the spreads are the
+  candidates' mean ``within_std`` and ``between_std``."""
+  return {**{k: values[k] for k in DECOMPOSED},
+          "spread_within": values["candidate_within_std"].mean(-2),
+          "spread_between": values["candidate_between_std"].mean(-2)}
 
 
 def plot(result: dict, path: str) -> str:
@@ -203,6 +228,7 @@ def main(argv=None) -> int:
   values = jax.jit(jax.vmap(lambda p, k: seed_goals(
       run, p, k, goals, args.episodes, args.candidates, args.deterministic)))(params, keys)
   values = {k: np.asarray(v) for k, v in values.items()}
+  summary = summary_values(values)
   prior = run.objective.spec.prior
   result = {"run": os.path.abspath(args.run), "label": common.run_label(run.spec),
             "indices": [int(i) for i in metrics.eval_indices(run.objective)],
@@ -210,7 +236,7 @@ def main(argv=None) -> int:
             "discrete": prior.kind == "categorical", "episodes": args.episodes,
             "goal_draw": draw,
             "deterministic": args.deterministic,
-            "summary": {k: np.atleast_1d(values[k].mean(0)).tolist() for k in SUMMARY},
+            "summary": {k: np.atleast_1d(v.mean(0)).tolist() for k, v in summary.items()},
             "per_seed": {str(run.spec.seeds[p]): {k: v[i].tolist() for k, v in values.items()}
                          for i, p in enumerate(picked)}}
   out = args.out or default_json
@@ -218,7 +244,7 @@ def main(argv=None) -> int:
   actions = "mean" if args.deterministic else "sampled"
   print(f"{result['label']}, seeds {[run.spec.seeds[p] for p in picked]}, {actions} actions, "
         f"{args.episodes} episodes per goal and per candidate")
-  print(common.seed_table({k: values[k] for k in SUMMARY}))
+  print(common.seed_table(summary))
   print(f"wrote {out}")
   return 0
 

@@ -43,6 +43,29 @@ def test_the_lgr_splits_into_reach_and_the_inferred_latents_excess():
   np.testing.assert_allclose(out["reached_std"], [[0.0], [1.0]])
 
 
+def test_a_latents_spread_splits_into_within_and_between_episodes():
+  # latent 0: two episodes striding between -1 and 1 about the same mean (all within);
+  # latent 1: two episodes holding 1 and 3 (all between)
+  striding = jnp.concatenate([_episodes(-1.0, 1.0), _episodes(1.0, -1.0)])
+  holding = jnp.concatenate([_episodes(1.0), _episodes(3.0)])
+  out = goal_reaching.spread(jnp.stack([striding, holding]))
+  np.testing.assert_allclose(out["within_std"], [[1.0], [0.0]])
+  np.testing.assert_allclose(out["between_std"], [[0.0], [1.0]])
+  # the two parts' squares are the variance of all of a latent's states
+  mixed = jax.random.normal(jax.random.PRNGKey(0), (3, 5, 7, 2)) + jnp.arange(5.0)[:, None, None]
+  parts = goal_reaching.spread(mixed)
+  np.testing.assert_allclose(parts["within_std"] ** 2 + parts["between_std"] ** 2,
+                             mixed.var((1, 2)), rtol=1e-5)
+  # decompose reports the candidates' parts, and the summary their mean over candidates
+  out = goal_reaching.decompose(jnp.stack([holding]), jnp.array([[0.0]]),
+                                jnp.stack([striding, holding]))
+  np.testing.assert_allclose(out["candidate_within_std"], [[1.0], [0.0]])
+  summary = goal_reaching.summary_values({k: v[None] for k, v in out.items()})
+  assert set(summary) == set(goal_reaching.SUMMARY)
+  np.testing.assert_allclose(summary["spread_within"], [[0.5]])
+  np.testing.assert_allclose(summary["spread_between"], [[0.5]])
+
+
 class _Limited:
   """Its one observed dim is the first action times 2.5, held within [-1.5, 1.5]: nothing beyond
   1.5 in magnitude can be reached."""
