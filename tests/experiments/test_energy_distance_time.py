@@ -23,7 +23,7 @@ def test_the_padded_arm_gives_the_unpadded_distances():
     before = energy_distance_time.padded_energy_distance(x, y, w, 16)
     assert float(now) > 0.5
     np.testing.assert_allclose(before, now, rtol=1e-5)
-  # the padding is what the arm adds: padded to 16 a 30-sample input is 32 rows, 2 of weight 0
+  # padded to 32 rows, 2 of them of weight 0, the 0/1 weights still give the kept samples' distance
   kept = np.asarray(weights) > 0
   np.testing.assert_allclose(energy_distance_time.padded_energy_distance(x, y, weights, 16),
                              particle.energy_distance(x[kept], y), rtol=1e-5)
