@@ -33,13 +33,18 @@ from blx.metrics import particle  # noqa: E402
 from blx.objectives import multimode_gaussian  # noqa: E402
 
 
+def padded_length(n: int, block_size: int) -> int:
+  """``n`` rounded up to a whole number of ``block_size`` blocks: an input's length as the
+  energy distance padded it before session 35."""
+  return -(-n // block_size) * block_size
+
+
 def padded_energy_distance(x, y, weights, block_size):
   """The energy distance as ``blx.metrics`` computed it before session 35: ``x`` and ``y`` each
-  padded to a whole number of ``block_size`` blocks, padding weighing 0."""
+  padded to a whole number of ``block_size`` blocks (``padded_length``), padding weighing 0."""
   def whole(a, w):
-    n = a.shape[0]
-    size = -(-n // block_size) * block_size
-    return jnp.pad(a, ((0, size - n), (0, 0))), jnp.pad(w.astype(a.dtype), (0, size - n))
+    pad = padded_length(a.shape[0], block_size) - a.shape[0]
+    return jnp.pad(a, ((0, pad), (0, 0))), jnp.pad(w.astype(a.dtype), (0, pad))
 
   xp, wx = whole(x, weights)
   yp, wy = whole(y, jnp.ones(y.shape[0]))
@@ -81,7 +86,6 @@ def main():
   before = lambda x, y, w: padded_energy_distance(x, y, w, args.block_size)
   arms = {"unpadded (now)": (evaluation(now), False), "padded (before)": (evaluation(before), True)}
   n = args.episodes * args.samples
-  whole = lambda k: -(-k // args.block_size) * args.block_size
   rows = []
   for dim in dims:
     target = jnp.asarray(multimode_gaussian(2, scale=5.0, dim=dim,
@@ -95,7 +99,8 @@ def main():
       raise SystemExit(f"the two arms disagree at D = {dim}: {first} vs {second}")
     for name, (fn, padded) in arms.items():
       _, times = common.time_calls(fn, lambda i: (*draws[i], target), args.repeats)
-      a, b = (whole(n), whole(args.target)) if padded else (n, args.target)
+      a, b = ((padded_length(n, args.block_size), padded_length(args.target, args.block_size))
+              if padded else (n, args.target))
       # per seed, each of the two distances sums a x b, a x a and b x b pairs
       rows.append({"dim": dim, "arm": name, "pairs": 2 * (a * b + a * a + b * b),
                    "median_ms": 1e3 * float(np.median(times))})
