@@ -1,0 +1,461 @@
+"""What can a body do under open-loop gaits? A cross-entropy search over sinusoid gaits, on blx's
+body (C MuJoCo, float64, the env's own MJCF and torque cut) or on Brax v1's physics, one budget.
+
+    python benchmarks/gait_search.py --sim blx [--body ant] [--edits JSON] [--no-cut] [--seeds 4]
+    python benchmarks/gait_search.py --sim brax --brax-config ant_v006.txt   # needs brax 0.12.1
+    python benchmarks/gait_search.py --sim blx --body halfcheetah --score swing --target 1.5 \\
+        --edits '{"global_options.timestep": 0.00625, "global_options.substeps": 8}'
+    python benchmarks/gait_search.py --sim brax --body halfcheetah --score swing --target 1.5 \\
+        --brax-config halfcheetah_v006.txt
+    python benchmarks/gait_search.py --sim brax --body halfcheetah --drift 96 \\
+        --brax-config halfcheetah_v006.txt
+
+A gait is a_j(t) = clip(amp_j sin(2 pi f t + phase_j) + bias_j, -1, 1) for the body's n motors
+(3n + 1 numbers: 25 for the ant, 19 for the halfcheetah). Each episode runs 120 control steps of
+0.05 s; the first 20 are a warm-up. Each seed runs ``--iters`` rounds of 96 samples, refitting a
+diagonal Gaussian to the best 12. Printed per seed: the best score (optimistic: gaits are chaotic,
+so the best of 96 is partly luck) and the elite mean of the last round (the figure to compare).
+
+Scores (higher is better):
+
+* ``speed``: the torso's planar speed over the 5 s after the warm-up (m/s); the ant scores 0 if
+  its torso leaves z in [0.2, 1] (Brax v1's ant termination; the halfcheetah has none).
+* ``energy`` (ant): can a gait spread the torso's xy velocity over GAIL's bimodal target (modes
+  (+-4, 0) m/s, std 0.8; the paper's D-min rows)? Minus the energy distance between the torso's xy
+  velocity at every step after the warm-up and the target's 250 samples (velocities spread like one
+  of the two modes score about -2.8, standing still -3.4).
+* ``swing``: how steadily can the body hold the forward speed ``--target``? Minus the root mean
+  square of (torso x velocity - target) over the control steps after the warm-up, the velocity read
+  once per control step as the MI-max rows' feature is. It is the spread that one latent's or one
+  skill's speeds would have if the policy ran this gait: the within-episode part of H(s|z). For the
+  last round's 12 best gaits the JSON also keeps the mean and the std of their speed.
+
+``--drift POSES`` searches nothing: it rolls out POSES random constant actions (each motor's action
+drawn from [-1, 1] and held) and reports how fast the torso still moves along x over the last
+2.5 s. On sound physics a body held in a pose comes to rest; one that keeps moving is carried by
+the simulator.
+
+``--sim brax`` builds a Brax v1 system from a Brax config in text format (``_SYSTEM_CONFIG`` of
+``brax/envs/ant.py`` or ``halfcheetah.py`` at v0.0.6, the physics of commit 2821f78 behind the
+paper) with ``dynamics_mode: "legacy_spring"``: Brax 0.12.1's ``brax.v1``, with the two jax aliases
+the fact sheet lists (``shared/reference/brax-v1-bodies.md`` section 10). legacy_spring multiplies
+the two colliders' friction, so the global friction is replaced by its square root (the cheetah's
+0.4 stays 0.4 per contact; the ant's 1 is unchanged). What still differs from the paper's physics
+is v0.0.6's orientation update at twice the angular velocity, fixed in v0.0.7.
+"""
+
+from __future__ import annotations
+
+import argparse
+import functools
+import json
+import time
+
+import numpy as np
+
+STEPS, WARM, DT = 120, 20, 0.05
+POPULATION, ELITE = 96, 12
+BODIES = ("ant", "halfcheetah")
+SCORES = ("speed", "energy", "swing")
+BRAX_SETTABLE = ("substeps", "dt", "friction", "angular_damping", "baumgarte_erp")
+
+
+def gait_actions(params: np.ndarray, t: int) -> np.ndarray:
+  """Actions ``[P, n]`` of gaits ``params [P, 3n + 1]`` at env step ``t``."""
+  n = (params.shape[1] - 1) // 3
+  amp, phase = np.clip(params[:, :n], 0, 1.5), params[:, n:2 * n]
+  bias, freq = np.clip(params[:, 2 * n:3 * n], -1, 1), np.clip(params[:, 3 * n:], 0.5, 4.0)
+  return np.clip(amp * np.sin(2 * np.pi * freq * t * DT + phase) + bias, -1, 1)
+
+
+def cross_entropy(score, num_motors: int, seed: int, iters: int) -> dict:
+  """Maximises ``score(params [P, 3n + 1]) -> [P]``: the best score and its params, the elite mean
+  of every round, and the last round's elite params (best first)."""
+  rng = np.random.default_rng(seed)
+  n = num_motors
+  mean = np.concatenate([np.full(n, 0.8), np.zeros(2 * n), [2.0]])
+  std = np.concatenate([np.full(n, 0.4), np.full(n, np.pi), np.full(n, 0.3), [1.0]])
+  best, best_params, elite_means, elite = -np.inf, None, [], None
+  for _ in range(iters):
+    params = mean + std * rng.standard_normal((POPULATION, 3 * n + 1))
+    scores = score(params)
+    order = np.argsort(-scores)[:ELITE]
+    if scores[order[0]] > best:
+      best, best_params = float(scores[order[0]]), params[order[0]].copy()
+    mean, std = params[order].mean(0), params[order].std(0) + 0.02
+    elite_means.append(float(scores[order].mean()))
+    elite = params[order]
+  return dict(best=best, best_params=best_params, elite_means=elite_means, elite_params=elite)
+
+
+@functools.lru_cache(maxsize=None)
+def _gail_target() -> tuple[np.ndarray, float]:
+  """GAIL's target samples ``[250, 2]`` and their mean pairwise distance (drawn once)."""
+  from blx.objectives.targets import multimode_gaussian
+  y = np.asarray(multimode_gaussian(2, scale=8.0, dim=2).samples, np.float64)
+  return y, float(np.linalg.norm(y[:, None] - y[None], axis=-1).mean())
+
+
+def energy_score(velocities: np.ndarray, alive: np.ndarray) -> np.ndarray:
+  """Minus the energy distance of each gait's velocities ``[P, T, 2]`` to GAIL's target; -10 for a
+  gait whose torso left the healthy heights."""
+  y, yy = _gail_target()
+  out = np.full(len(velocities), -10.0)
+  for i, x in enumerate(velocities):
+    if alive[i] and np.isfinite(x).all():
+      xy = np.linalg.norm(x[:, None] - y[None], axis=-1).mean()
+      xx = np.linalg.norm(x[:, None] - x[None], axis=-1).mean()
+      out[i] = -(2 * xy - xx - yy)
+  return out
+
+
+def swing_score(velocities: np.ndarray, alive: np.ndarray, target: float) -> np.ndarray:
+  """Minus the RMS of (x velocity - ``target``) over each gait's steps ``[P, T, D]``; -100 for a
+  gait that was cut short or blew up."""
+  vx = velocities[..., 0]
+  rms = np.sqrt(np.mean((vx - target) ** 2, axis=1))
+  return np.where(alive & np.isfinite(rms), -rms, -100.0)
+
+
+def scores_of(kind: str, rollout, target: float | None):
+  """``params -> [P]`` for score ``kind``, from ``rollout(params) -> (velocities [P, T, D] after the
+  warm-up, planar speed [P], alive [P])``."""
+  def score(params):
+    velocities, speed, alive = rollout(params)
+    if kind == "energy":
+      return energy_score(velocities, alive)
+    if kind == "swing":
+      return swing_score(velocities, alive, target)
+    return np.where(alive, speed, 0.0)
+  return score
+
+
+def blx_rollout(body: str, edits: dict | None, cut: bool):
+  """``params -> (velocities, speed, alive)`` on blx's ``body`` (C MuJoCo, float64)."""
+  import mujoco
+
+  from blx import envs
+  env = envs.unwrap(envs.create(body, edits=edits))
+  m, torque_cut = env.mj_model, env.torque_cut
+  # the root's planar slide dofs (the halfcheetah's rootx) or the free joint's x, y
+  free = m.jnt_type[0] == mujoco.mjtJoint.mjJNT_FREE
+  dofs = np.array([0, 1] if free else [0])
+  height = 2 if free else None   # the ant's torso z; the halfcheetah never terminates
+
+  def ctrl(action, qpos):
+    action = action.astype(np.float64)
+    if cut and len(torque_cut.actuators):
+      angle = qpos[torque_cut.qpos_adr]
+      action[torque_cut.actuators] *= (angle >= torque_cut.low) & (angle <= torque_cut.high)
+    return action
+
+  def rollout(params):
+    velocities = np.zeros((len(params), STEPS - WARM, len(dofs)))
+    speed, alive = np.zeros(len(params)), np.zeros(len(params), bool)
+    for i in range(len(params)):
+      d = mujoco.MjData(m)
+      d.qpos[:] = env.init_qpos
+      mujoco.mj_forward(m, d)
+      for t in range(STEPS):
+        if t == WARM:
+          start = d.qpos[dofs].copy()
+        action = gait_actions(params[i:i + 1], t)[0]
+        for _ in range(env.substeps):
+          d.ctrl[:] = ctrl(action, d.qpos)
+          mujoco.mj_step(m, d)
+        if not np.isfinite(d.qpos).all() or (height is not None
+                                             and not 0.2 <= d.qpos[height] <= 1.0):
+          break
+        if t >= WARM:
+          velocities[i, t - WARM] = d.qvel[dofs]
+      else:
+        alive[i] = True
+        speed[i] = np.linalg.norm(d.qpos[dofs] - start) / ((STEPS - WARM) * DT)
+    return velocities, speed, alive
+
+  return rollout, m.nu
+
+
+def parse_brax_sets(pairs: list[str]) -> dict[str, float]:
+  """``["substeps=64", ...]`` -> ``{"substeps": 64.0}``; a clear error for anything else."""
+  out = {}
+  for pair in pairs:
+    field, _, value = pair.partition("=")
+    if field not in BRAX_SETTABLE:
+      raise ValueError(f"--brax-set {pair!r}: the field must be one of {', '.join(BRAX_SETTABLE)}")
+    try:
+      out[field] = float(value)
+    except ValueError:
+      raise ValueError(f"--brax-set {pair!r}: the value must be a number") from None
+  return out
+
+
+def brax_rollout(config_path: str, body: str, sets: dict[str, float] | None = None):
+  """``params -> (velocities, speed, alive)`` on Brax v1's physics (brax 0.12.1, legacy_spring),
+  with the config's top-level ``sets`` (e.g. ``{"substeps": 64}``) replaced first."""
+  import jax
+  import jax.numpy as jnp
+  from jax._src import core as jax_core
+  from jax._src.interpreters import batching
+  jax.interpreters.batching.BatchTracer = batching.BatchTracer
+  if not hasattr(jax.core, "unsafe_am_i_under_a_jit_DO_NOT_USE"):
+    jax.core.unsafe_am_i_under_a_jit_DO_NOT_USE = jax_core.unsafe_am_i_under_a_jit
+  from brax import v1 as brax
+  from google.protobuf import text_format
+
+  with open(config_path) as f:
+    text = f.read() + '\ndynamics_mode: "legacy_spring"\n'
+  config = text_format.Parse(text, brax.Config())
+  for field, value in (sets or {}).items():
+    setattr(config, field, type(getattr(config, field))(value))
+  config.friction = float(np.sqrt(config.friction))   # legacy_spring multiplies the pair's
+  system = brax.System(config)
+  qp0 = system.default_qp()
+  n, dims = system.num_actuators, (2 if body == "ant" else 1)
+
+  def one(params):
+    amp, phase = jnp.clip(params[:n], 0, 1.5), params[n:2 * n]
+    bias, freq = jnp.clip(params[2 * n:3 * n], -1, 1), jnp.clip(params[3 * n], 0.5, 4.0)
+
+    def step(carry, t):
+      qp, alive, start = carry
+      action = jnp.clip(amp * jnp.sin(2 * jnp.pi * freq * t * DT + phase) + bias, -1, 1)
+      qp, _ = system.step(qp, action)
+      alive &= jnp.all(jnp.isfinite(qp.pos[0]))
+      if body == "ant":
+        alive &= (qp.pos[0, 2] >= 0.2) & (qp.pos[0, 2] <= 1.0)
+      start = jnp.where(t == WARM - 1, qp.pos[0, :dims], start)
+      return (qp, alive, start), qp.vel[0, :dims]
+
+    (qp, alive, start), vel = jax.lax.scan(step, (qp0, jnp.array(True), qp0.pos[0, :dims]),
+                                           jnp.arange(STEPS))
+    speed = jnp.linalg.norm(qp.pos[0, :dims] - start) / ((STEPS - WARM) * DT)
+    return vel[WARM:], speed, alive
+
+  batched = jax.jit(jax.vmap(one))
+
+  def rollout(params):
+    vel, speed, alive = batched(jnp.asarray(params, jnp.float32))
+    return (np.asarray(vel, np.float64), np.asarray(speed, np.float64),
+            np.asarray(alive, bool))
+
+  return rollout, n
+
+
+def constant_action_drift(rollout, num_motors: int, poses: int, seed: int = 0) -> dict:
+  """Rolls out ``poses`` constant actions drawn uniformly from [-1, 1]^n (no gait: amplitude 0) and
+  returns how fast each torso still moves along x over the episode's last 2.5 s (``|mean vx|``,
+  m/s). A body at rest under a constant torque does no work, so on sound physics it comes to a
+  stop; a body that keeps moving is driven by the simulator, not by a gait."""
+  n = num_motors
+  params = np.zeros((poses, 3 * n + 1))
+  params[:, 2 * n:3 * n] = np.random.default_rng(seed).uniform(-1, 1, (poses, n))
+  params[:, 3 * n] = 1.0
+  velocities, _, alive = rollout(params)
+  drift = np.abs(velocities[:, -int(round(2.5 / DT)):, 0].mean(1))
+  return dict(drift=drift.tolist(), alive=alive.tolist(), median=float(np.median(drift)),
+              share_above_0_1=float(np.mean(drift > 0.1)), max=float(drift.max()))
+
+
+def speed_profile(velocities: np.ndarray) -> dict:
+  """The mean and the within-episode std of each gait's x velocity ``[P, T, D]``."""
+  vx = velocities[..., 0]
+  return dict(mean_speed=vx.mean(1).tolist(), std_speed=vx.std(1).tolist())
+
+
+# Brax v0.0.6's own step per body (fact sheet section 2), for labels of runs that kept it
+V006_STEP = {"ant": (10, 5.0), "halfcheetah": (16, 3.125)}
+
+
+def describe(args: dict) -> str:
+  """A run's physics in words, from the arguments its JSON kept."""
+  body = args["body"]
+  if args["sim"] == "brax":
+    sets = parse_brax_sets(args.get("brax_set") or [])
+    substeps = int(sets.pop("substeps", V006_STEP[body][0]))
+    dt = sets.pop("dt", 0.05)   # v0.0.6's control step for both bodies
+    h = 1000 * dt / substeps
+    text = f"Brax v1 {body}, {substeps} x {h:.4g} ms"
+    if (substeps, h) == V006_STEP[body] and not sets:
+      text += " (the paper's)"
+    return text + "".join(f", {k} {v:g}" for k, v in sets.items())
+  edits = json.loads(args["edits"]) if args.get("edits") else {}
+  if "global_options.substeps" in edits:
+    return (f"blx {body}, {edits['global_options.substeps']} x "
+            f"{1000 * edits['global_options.timestep']:g} ms")
+  return f"blx {body}, its default step"
+
+
+def plot_study(paths: list[str], png: str, reference: str | None = None) -> None:
+  """One figure of the JSONs ``paths`` this script wrote: the swing searches' elite RMS per target
+  speed (left) and the constant-action drifts (right). ``reference``: a ``goal_reaching.py`` JSON
+  whose mean within-episode spread is drawn as the trained policy's."""
+  import matplotlib
+  matplotlib.use("Agg")
+  import matplotlib.pyplot as plt
+
+  runs = []
+  for path in paths:
+    with open(path) as f:
+      runs.append(json.load(f))
+  swings = [r for r in runs if r["args"]["score"] == "swing" and "seeds" in r]
+  drifts = [r for r in runs if "drift" in r]
+  if not swings and not drifts:
+    raise ValueError(f"none of {paths} is a swing search or a drift run of gait_search.py")
+  fig, (left, right) = plt.subplots(1, 2, figsize=(14, 5.5),
+                                    gridspec_kw=dict(width_ratios=[1, 1.2]))
+  labels = sorted({describe(r["args"]) for r in swings})
+  targets = sorted({r["args"]["target"] for r in swings})
+  palettes = dict(brax=iter(["tab:red", "tab:orange", "tab:pink", "tab:brown"]),
+                  blx=iter(["tab:blue", "tab:cyan", "tab:green", "tab:purple"]))
+  sims = {describe(r["args"]): r["args"]["sim"] for r in swings}
+  colors = {label: next(palettes[sims[label]]) for label in labels}   # red: Brax, blue: blx
+  width = 0.8 / max(len(labels), 1)
+  for r in swings:
+    label = describe(r["args"])
+    k, x = labels.index(label), targets.index(r["args"]["target"])
+    rms = [-seed["elite_last"] for seed in r["seeds"].values()]
+    pos = x - 0.4 + width * (k + 0.5)
+    left.bar(pos, np.mean(rms), width * 0.9, color=colors[label], alpha=0.35)
+    left.plot(np.full(len(rms), pos), rms, "o", color=colors[label], ms=4)
+  for label in labels:
+    left.bar(np.nan, np.nan, color=colors[label], alpha=0.6, label=label)
+  if reference:
+    with open(reference) as f:
+      spread = json.load(f)["summary"]["spread_within"][0]
+    left.axhline(spread, color="k", ls="--", lw=1,
+                 label=f"blx's trained GCRL policy: speed std within an episode ({spread:.2f})")
+  left.set_ylim(0, 1.4 * max(-seed["elite_last"] for r in swings for seed in r["seeds"].values()))
+  left.set_xticks(range(len(targets)), [f"{t:+g} m/s" for t in targets])
+  left.set_xlabel("the speed to hold (target)")
+  left.set_ylabel("RMS of (torso x speed - target), m/s\n(the 12 best gaits of the last round)")
+  left.set_title("How steadily open-loop gaits hold a speed\n(bars: mean over search seeds; dots: "
+                 "each seed)")
+  left.legend(fontsize=8, loc="upper left")
+  left.grid(alpha=0.3, axis="y")
+  def order(r):   # per body: blx, then Brax at its own step, finer steps, then other settings
+    sets = parse_brax_sets(r["args"].get("brax_set") or [])
+    return (r["args"]["body"], r["args"]["sim"] == "brax", len(sets) - ("substeps" in sets),
+            sets.get("substeps", 0), describe(r["args"]))
+  drifts.sort(key=order)
+  for i, r in enumerate(drifts):
+    d = np.maximum(np.asarray(r["drift"]), 1e-4)
+    jitter = np.random.default_rng(i).uniform(-0.2, 0.2, len(d))
+    right.plot(i + jitter, d, ".", color="tab:red" if r["args"]["sim"] == "brax" else "tab:blue",
+               alpha=0.5, ms=4)
+    right.plot([i - 0.3, i + 0.3], [np.median(d)] * 2, "k-", lw=2)
+    right.text(i, 6.0, f"{100 * r['share_above_0_1']:.0f}%", ha="center", fontsize=8)
+  right.axhline(0.1, color="gray", ls=":", lw=1)
+  for color, name in (("tab:blue", "blx (MuJoCo)"),
+                      ("tab:red", "Brax v1 (brax 0.12.1, legacy_spring)")):
+    right.plot([], [], "o", color=color, label=name)
+  right.legend(fontsize=8, loc="lower right")
+  right.set_yscale("log")
+  right.set_ylim(1e-4, 12)
+  right.set_xticks(range(len(drifts)), [describe(r["args"]).replace(", ", "\n", 1)
+                                        for r in drifts], fontsize=7, rotation=30, ha="right")
+  right.set_ylabel("|mean torso x speed| over the last 2.5 s, m/s (log)")
+  right.set_title("Held poses: does the body come to rest?\n(each dot a random constant action; "
+                  "bar: median; top: share above 0.1 m/s)")
+  right.grid(alpha=0.3, axis="y")
+  fig.tight_layout()
+  fig.savefig(png, dpi=120)
+  plt.close(fig)
+
+
+def main():
+  parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+  parser.add_argument("--sim", choices=["blx", "brax"], default=None,
+                      help="the physics to search on (required unless --plot)")
+  parser.add_argument("--body", choices=BODIES, default="ant")
+  parser.add_argument("--edits", default=None, metavar="JSON", help="blx: edits of the body's desc")
+  parser.add_argument("--no-cut", action="store_true", help="blx: no torque cut (diagnostic only)")
+  parser.add_argument("--brax-config", default=None, help="brax: a Brax v1 config in text format")
+  parser.add_argument("--brax-set", action="append", default=[], metavar="FIELD=VALUE",
+                      help="brax: replace a top-level config field first (repeatable): "
+                           + ", ".join(BRAX_SETTABLE) + " (friction per collider, before the "
+                           "square root)")
+  parser.add_argument("--score", choices=SCORES, default="speed",
+                      help="speed: planar speed (m/s); energy (ant): minus the energy distance of "
+                           "the torso's xy velocities to GAIL's bimodal target; swing: minus the "
+                           "RMS of (x velocity - --target) (m/s)")
+  parser.add_argument("--target", type=float, default=None, help="swing: the speed to hold (m/s)")
+  parser.add_argument("--drift", type=int, default=None, metavar="POSES",
+                      help="no search: roll out POSES random constant actions and report how fast "
+                           "the torso still moves over the last 2.5 s")
+  parser.add_argument("--plot", nargs="+", default=None, metavar=("PNG", "JSON"),
+                      help="no run: draw the swing searches and drifts in the JSONs into PNG")
+  parser.add_argument("--reference", default=None,
+                      help="--plot: a goal_reaching.py JSON whose within-episode spread to draw")
+  parser.add_argument("--seeds", type=int, default=4)
+  parser.add_argument("--iters", type=int, default=60)
+  parser.add_argument("--out", default=None, help="write per-seed results as JSON here")
+  args = parser.parse_args()
+  if args.plot is not None:
+    if len(args.plot) < 2 or not args.plot[0].endswith(".png"):
+      parser.error("--plot takes the PNG to write, then one or more JSONs of this script")
+    try:
+      plot_study(args.plot[1:], args.plot[0], args.reference)
+    except (OSError, KeyError, ValueError) as err:
+      parser.error(f"--plot: {err}")
+    print(f"wrote {args.plot[0]}")
+    return
+  if args.sim is None:
+    parser.error("--sim is required (blx or brax) unless --plot")
+  if args.sim == "brax" and not args.brax_config:
+    parser.error("--sim brax needs --brax-config")
+  if args.sim == "blx" and args.brax_config:
+    parser.error("--brax-config is for --sim brax; --sim blx builds the body from blx's registry")
+  if (args.score == "swing") != (args.target is not None):
+    parser.error("--target is required by --score swing and taken by no other score")
+  if args.score == "energy" and args.body != "ant":
+    parser.error("--score energy compares xy velocities with GAIL's 2-D target: --body ant only")
+  if args.seeds < 1 or args.iters < 1:
+    parser.error("--seeds and --iters must be at least 1")
+  if args.drift is not None and (args.drift < 1 or args.score != "speed"):
+    parser.error("--drift takes a number of poses (at least 1) and no --score: it searches nothing")
+  if args.sim == "brax" and (args.edits or args.no_cut):
+    parser.error("--edits and --no-cut change blx's body: --sim blx only (Brax takes --brax-set)")
+  if args.brax_set and args.sim != "brax":
+    parser.error("--brax-set edits a Brax config: --sim brax only (blx takes --edits)")
+  try:
+    sets = parse_brax_sets(args.brax_set)
+  except ValueError as err:
+    parser.error(str(err))
+  if args.sim == "brax":
+    rollout, motors = brax_rollout(args.brax_config, args.body, sets)
+  else:
+    rollout, motors = blx_rollout(args.body, json.loads(args.edits) if args.edits else None,
+                                  cut=not args.no_cut)
+  if args.drift is not None:
+    found = constant_action_drift(rollout, motors, args.drift)
+    print(f"{args.drift} constant actions: the torso's |mean x velocity| over the last 2.5 s is "
+          f"{found['median']:.3f} m/s (median), at most {found['max']:.3f} m/s; "
+          f"{100 * found['share_above_0_1']:.0f}% of the poses still move faster than 0.1 m/s")
+    if args.out:
+      with open(args.out, "w") as f:
+        json.dump(dict(args=vars(args), **found), f, indent=1)
+    return
+  score = scores_of(args.score, rollout, args.target)
+  unit = {"speed": "m/s", "energy": "(-energy distance)", "swing": "(-RMS m/s)"}[args.score]
+  results = {}
+  for seed in range(args.seeds):
+    start = time.time()
+    found = cross_entropy(score, motors, seed, args.iters)
+    results[seed] = dict(best=found["best"], elite_last=found["elite_means"][-1],
+                         elite_means=found["elite_means"], params=found["best_params"].tolist())
+    line = (f"seed {seed}: best {found['best']:.3f} {unit}, elite mean "
+            f"{found['elite_means'][-1]:.3f} {unit}")
+    if args.score == "swing":
+      profile = speed_profile(rollout(found["elite_params"])[0])
+      results[seed]["elite_profile"] = profile
+      line += (f"; the elite's speed {np.mean(profile['mean_speed']):.2f} m/s, its std within "
+               f"the episode {np.mean(profile['std_speed']):.3f} m/s")
+    print(f"{line} ({time.time() - start:.0f} s)", flush=True)
+  if args.out:
+    with open(args.out, "w") as f:
+      json.dump(dict(args=vars(args), seeds=results), f, indent=1)
+
+
+if __name__ == "__main__":
+  main()

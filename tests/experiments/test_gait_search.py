@@ -1,0 +1,128 @@
+"""benchmarks/gait_search.py: gaits for any number of motors, the swing score is the RMS distance
+from the target speed, the drift reads the last 2.5 s of constant actions, blx's halfcheetah comes
+to rest under them (Brax v1's does not), and bad input is refused by name."""
+
+import json
+import sys
+
+import numpy as np
+import pytest
+
+from tests.experiments import load_benchmark
+
+gait_search = load_benchmark("gait_search")
+ROW_STEP = {"global_options.timestep": 0.00625, "global_options.substeps": 8}
+
+
+def test_gaits_take_the_motor_count_from_their_length():
+  n = 6
+  params = np.zeros((2, 3 * n + 1))
+  params[0, 2 * n:3 * n] = np.linspace(-0.5, 0.5, n)        # bias only: the action is the bias
+  params[1, :n], params[1, n:2 * n], params[1, 3 * n] = 1.0, np.pi / 2, 1.0   # sin(2 pi t + pi/2)
+  actions = gait_search.gait_actions(params, t=0)
+  assert actions.shape == (2, n)
+  np.testing.assert_allclose(actions[0], np.linspace(-0.5, 0.5, n))
+  np.testing.assert_allclose(actions[1], np.ones(n))
+  np.testing.assert_allclose(gait_search.gait_actions(params, t=10)[1], -np.ones(n), atol=1e-9)
+
+
+def test_swing_is_the_rms_distance_from_the_target():
+  t = np.arange(100) * gait_search.DT
+  steady = np.full((1, 100, 1), 1.5)
+  swinging = (1.5 + 0.4 * np.sin(2 * np.pi * t))[None, :, None]   # whole periods
+  slow = np.full((1, 100, 1), 1.2)
+  velocities = np.concatenate([steady, swinging, slow, steady])
+  alive = np.array([True, True, True, False])
+  score = gait_search.swing_score(velocities, alive, target=1.5)
+  np.testing.assert_allclose(score, [0.0, -0.4 / np.sqrt(2), -0.3, -100.0], atol=1e-9)
+  profile = gait_search.speed_profile(velocities[:3])
+  np.testing.assert_allclose(profile["mean_speed"], [1.5, 1.5, 1.2], atol=1e-9)
+  np.testing.assert_allclose(profile["std_speed"], [0.0, 0.4 / np.sqrt(2), 0.0], atol=1e-9)
+
+
+def test_the_search_climbs_a_known_score():
+  # score: minus the distance of the first bias from 0.3; the search must find it
+  def score(params):
+    return -np.abs(params[:, 2 * 4] - 0.3)
+  found = gait_search.cross_entropy(score, num_motors=4, seed=0, iters=15)
+  assert found["elite_params"].shape == (gait_search.ELITE, 13)
+  assert found["best"] > -0.01 and found["elite_means"][-1] > found["elite_means"][0]
+
+
+def test_drift_reads_the_last_two_and_a_half_seconds():
+  last = int(round(2.5 / gait_search.DT))
+
+  def rollout(params):
+    v = np.zeros((len(params), gait_search.STEPS - gait_search.WARM, 1))
+    v[:, :-last] = 5.0                       # fast early on: not the drift
+    v[:, -last:, 0] = -params[:, 2 * 6:2 * 6 + 1]   # the last 2.5 s at minus the first bias
+    return v, np.zeros(len(params)), np.ones(len(params), bool)
+
+  found = gait_search.constant_action_drift(rollout, num_motors=6, poses=8, seed=3)
+  bias = np.random.default_rng(3).uniform(-1, 1, (8, 6))[:, 0]
+  np.testing.assert_allclose(found["drift"], np.abs(bias))
+  assert found["share_above_0_1"] == np.mean(np.abs(bias) > 0.1)
+
+
+def test_blx_halfcheetah_comes_to_rest_under_constant_actions():
+  # Brax v1's halfcheetah at the paper's step keeps moving: median 0.19 m/s, 74% of 96 poses
+  # above 0.1 m/s (RESULTS session 45). Sound physics brings a held pose to rest.
+  rollout, motors = gait_search.blx_rollout("halfcheetah", ROW_STEP, cut=True)
+  assert motors == 6
+  found = gait_search.constant_action_drift(rollout, motors, poses=12)
+  assert all(found["alive"])
+  assert found["median"] < 0.05 and found["share_above_0_1"] <= 0.25
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["--sim", "blx", "--score", "swing"], "--target is required by --score swing"),
+    (["--sim", "blx", "--target", "1.5"], "--target is required by --score swing"),
+    (["--sim", "blx", "--body", "halfcheetah", "--score", "energy"], "--body ant only"),
+    (["--sim", "blx", "--drift", "0"], "--drift takes a number of poses"),
+    (["--sim", "blx", "--drift", "8", "--score", "swing", "--target", "1"], "--drift takes"),
+    (["--sim", "blx", "--brax-set", "substeps=64"], "--sim brax only"),
+    (["--sim", "blx", "--brax-config", "x.txt"], "--brax-config is for --sim brax"),
+    (["--sim", "brax"], "--sim brax needs --brax-config"),
+    (["--sim", "brax", "--brax-config", "x.txt", "--no-cut"], "--sim blx only"),
+    (["--sim", "brax", "--brax-config", "x.txt", "--brax-set", "k=1"], "the field must be one of"),
+    (["--sim", "brax", "--brax-config", "x.txt", "--brax-set", "dt=a"], "must be a number"),
+    (["--sim", "blx", "--seeds", "0"], "--seeds and --iters must be at least 1"),
+    ([], "--sim is required (blx or brax) unless --plot"),
+    (["--plot", "a.json", "b.json"], "--plot takes the PNG to write"),
+    (["--plot", "a.png", "missing.json"], "--plot: [Errno 2]"),
+])
+def test_bad_input_is_named(monkeypatch, capsys, argv, message):
+  monkeypatch.setattr(sys, "argv", ["gait_search.py", *argv])
+  with pytest.raises(SystemExit) as exit_:
+    gait_search.main()
+  assert exit_.value.code == 2 and message in capsys.readouterr().err
+
+
+def test_runs_are_described_by_their_physics():
+  brax = dict(sim="brax", body="halfcheetah", brax_set=[])
+  assert gait_search.describe(brax) == "Brax v1 halfcheetah, 16 x 3.125 ms (the paper's)"
+  assert gait_search.describe({**brax, "brax_set": ["substeps=64"]}) == (
+      "Brax v1 halfcheetah, 64 x 0.7812 ms")
+  assert gait_search.describe({**brax, "brax_set": ["baumgarte_erp=0.1"]}) == (
+      "Brax v1 halfcheetah, 16 x 3.125 ms, baumgarte_erp 0.1")
+  assert gait_search.describe(dict(sim="brax", body="ant")) == (
+      "Brax v1 ant, 10 x 5 ms (the paper's)")
+  blx = dict(sim="blx", body="halfcheetah", edits='{"global_options.timestep": 0.00625, '
+             '"global_options.substeps": 8}')
+  assert gait_search.describe(blx) == "blx halfcheetah, 8 x 6.25 ms"
+
+
+def test_the_study_plot_takes_only_this_scripts_runs(tmp_path):
+  args = dict(sim="brax", body="halfcheetah", brax_set=[], score="speed")
+  drift = tmp_path / "drift.json"
+  drift.write_text(json.dumps(dict(args=args, drift=[0.2, 0.01], share_above_0_1=0.5)))
+  swing = tmp_path / "swing.json"
+  swing.write_text(json.dumps(dict(args={**args, "score": "swing", "target": 1.5},
+                                   seeds={"0": dict(elite_last=-0.1)})))
+  png = tmp_path / "study.png"
+  gait_search.plot_study([str(drift), str(swing)], str(png))
+  assert png.stat().st_size > 10_000
+  other = tmp_path / "other.json"
+  other.write_text(json.dumps(dict(args={**args, "score": "energy"}, seeds={})))
+  with pytest.raises(ValueError, match="is a swing search or a drift run"):
+    gait_search.plot_study([str(other)], str(png))
