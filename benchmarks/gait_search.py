@@ -35,6 +35,10 @@ drawn from [-1, 1] and held) and reports how fast the torso still moves along x 
 2.5 s. On sound physics a body held in a pose comes to rest; one that keeps moving is carried by
 the simulator.
 
+``--held POSES --noise SIGMA`` (halfcheetah) scores skills that hold still: POSES held poses, each
+with Gaussian action noise of std SIGMA every step, over 1000-step episodes, and their H(s) by the
+rows' protocol (the x velocity over the last 500 steps, 1000 bins over [-5, 5]).
+
 ``--sim brax`` builds a Brax v1 system from a Brax config in text format (``_SYSTEM_CONFIG`` of
 ``brax/envs/ant.py`` or ``halfcheetah.py`` at v0.0.6, the physics of commit 2821f78 behind the
 paper) with ``dynamics_mode: "legacy_spring"``: Brax 0.12.1's ``brax.v1``, with the two jax aliases
@@ -149,17 +153,19 @@ def blx_rollout(body: str, edits: dict | None, cut: bool):
       action[torque_cut.actuators] *= (angle >= torque_cut.low) & (angle <= torque_cut.high)
     return action
 
-  def rollout(params):
-    velocities = np.zeros((len(params), STEPS - WARM, len(dofs)))
+  def rollout(params, steps=STEPS, noise=None):
+    velocities = np.zeros((len(params), steps - WARM, len(dofs)))
     speed, alive = np.zeros(len(params)), np.zeros(len(params), bool)
     for i in range(len(params)):
       d = mujoco.MjData(m)
       d.qpos[:] = env.init_qpos
       mujoco.mj_forward(m, d)
-      for t in range(STEPS):
+      for t in range(steps):
         if t == WARM:
           start = d.qpos[dofs].copy()
         action = gait_actions(params[i:i + 1], t)[0]
+        if noise is not None:
+          action = np.clip(action + noise[t, i], -1, 1)
         for _ in range(env.substeps):
           d.ctrl[:] = ctrl(action, d.qpos)
           mujoco.mj_step(m, d)
@@ -170,7 +176,7 @@ def blx_rollout(body: str, edits: dict | None, cut: bool):
           velocities[i, t - WARM] = d.qvel[dofs]
       else:
         alive[i] = True
-        speed[i] = np.linalg.norm(d.qpos[dofs] - start) / ((STEPS - WARM) * DT)
+        speed[i] = np.linalg.norm(d.qpos[dofs] - start) / ((steps - WARM) * DT)
     return velocities, speed, alive
 
   return rollout, m.nu
@@ -213,13 +219,15 @@ def brax_rollout(config_path: str, body: str, sets: dict[str, float] | None = No
   qp0 = system.default_qp()
   n, dims = system.num_actuators, (2 if body == "ant" else 1)
 
-  def one(params):
+  def one(params, noise):
     amp, phase = jnp.clip(params[:n], 0, 1.5), params[n:2 * n]
     bias, freq = jnp.clip(params[2 * n:3 * n], -1, 1), jnp.clip(params[3 * n], 0.5, 4.0)
 
-    def step(carry, t):
+    def step(carry, xs):
+      t, eps = xs
       qp, alive, start = carry
       action = jnp.clip(amp * jnp.sin(2 * jnp.pi * freq * t * DT + phase) + bias, -1, 1)
+      action = jnp.clip(action + eps, -1, 1)
       qp, _ = system.step(qp, action)
       alive &= jnp.all(jnp.isfinite(qp.pos[0]))
       if body == "ant":
@@ -227,15 +235,18 @@ def brax_rollout(config_path: str, body: str, sets: dict[str, float] | None = No
       start = jnp.where(t == WARM - 1, qp.pos[0, :dims], start)
       return (qp, alive, start), qp.vel[0, :dims]
 
+    steps = noise.shape[0]
     (qp, alive, start), vel = jax.lax.scan(step, (qp0, jnp.array(True), qp0.pos[0, :dims]),
-                                           jnp.arange(STEPS))
-    speed = jnp.linalg.norm(qp.pos[0, :dims] - start) / ((STEPS - WARM) * DT)
+                                           (jnp.arange(steps), noise))
+    speed = jnp.linalg.norm(qp.pos[0, :dims] - start) / ((steps - WARM) * DT)
     return vel[WARM:], speed, alive
 
-  batched = jax.jit(jax.vmap(one))
+  batched = jax.jit(jax.vmap(one, in_axes=(0, 1)))   # noise [steps, P, n]
 
-  def rollout(params):
-    vel, speed, alive = batched(jnp.asarray(params, jnp.float32))
+  def rollout(params, steps=STEPS, noise=None):
+    if noise is None:
+      noise = np.zeros((steps, len(params), n))
+    vel, speed, alive = batched(jnp.asarray(params, jnp.float32), jnp.asarray(noise, jnp.float32))
     return (np.asarray(vel, np.float64), np.asarray(speed, np.float64),
             np.asarray(alive, bool))
 
@@ -255,6 +266,29 @@ def constant_action_drift(rollout, num_motors: int, poses: int, seed: int = 0) -
   drift = np.abs(velocities[:, -int(round(2.5 / DT)):, 0].mean(1))
   return dict(drift=drift.tolist(), alive=alive.tolist(), median=float(np.median(drift)),
               share_above_0_1=float(np.mean(drift > 0.1)), max=float(drift.max()))
+
+
+def held_pose_entropy(rollout, num_motors: int, poses: int, sigma: float, seed: int = 0,
+                      steps: int = 1000, last: int = 500, scale: float = 5.0) -> dict:
+  """H(s) of skills that hold still: ``poses`` constant actions drawn uniformly from [-1, 1]^n,
+  each with Gaussian action noise of std ``sigma`` added every step (the same draws on either
+  physics), over whole 1000-step episodes. H(s) is the MI-max rows' protocol for the HalfCheetah:
+  the x velocity over the last ``last`` steps of every episode, a histogram of 1000 bins over
+  [-scale, scale] (``metrics.particle.entropy``). The reading for a DIAYN_FULL row whose skills
+  are poses."""
+  from blx.metrics import particle
+  n = num_motors
+  rng = np.random.default_rng(seed)
+  params = np.zeros((poses, 3 * n + 1))
+  params[:, 2 * n:3 * n] = rng.uniform(-1, 1, (poses, n))
+  params[:, 3 * n] = 1.0
+  noise = sigma * rng.standard_normal((steps, poses, n))
+  velocities, _, alive = rollout(params, steps, noise)
+  x = velocities[:, -last:, 0]
+  h = float(particle.entropy(np.asarray(x.reshape(-1), np.float32), bins=1000,
+                             value_range=(-scale, scale)))
+  return dict(entropy=h, sigma=sigma, std=float(x.std()), pose_speed=x.mean(1).tolist(),
+              alive=alive.tolist())
 
 
 def speed_profile(velocities: np.ndarray) -> dict:
@@ -286,10 +320,30 @@ def describe(args: dict) -> str:
   return f"blx {body}, its default step"
 
 
+def _plot_held(ax, held: list[dict]) -> None:
+  """H(s) of held poses against the action noise, one line per physics, beside the paper's
+  HalfCheetah DIAYN_FULL row."""
+  import paper_tables
+  mean, std = paper_tables.PAPER["halfcheetah"]["diayn_full"]["eval/entropy"]
+  ax.axhspan(mean - std, mean + std, color="gray", alpha=0.2)
+  ax.axhline(mean, color="gray", ls="--", lw=1, label="the paper's DIAYN_FULL row (mean ± std)")
+  for label in sorted({describe(r["args"]) for r in held}):
+    points = sorted((r["sigma"], r["entropy"]) for r in held if describe(r["args"]) == label)
+    brax = label.startswith("Brax")
+    ax.plot(*zip(*points), "o-", color="tab:red" if brax else "tab:blue", label=label)
+  ax.set_xlabel("action noise added every step (std)")
+  ax.set_ylabel("H(s) of the x velocity (nats)")
+  ax.set_title("Skills that hold still: H(s) of held poses\n(1000-step episodes, the rows' "
+               "protocol: last 500 steps)")
+  ax.legend(fontsize=8, loc="center right")
+  ax.grid(alpha=0.3)
+
+
 def plot_study(paths: list[str], png: str, reference: str | None = None) -> None:
   """One figure of the JSONs ``paths`` this script wrote: the swing searches' elite RMS per target
-  speed (left) and the constant-action drifts (right). ``reference``: a ``goal_reaching.py`` JSON
-  whose mean within-episode spread is drawn as the trained policy's."""
+  speed (left), the constant-action drifts (middle) and, if given, the held poses' H(s) (right).
+  ``reference``: a ``goal_reaching.py`` JSON whose mean within-episode spread is drawn as the
+  trained policy's."""
   import matplotlib
   matplotlib.use("Agg")
   import matplotlib.pyplot as plt
@@ -300,10 +354,15 @@ def plot_study(paths: list[str], png: str, reference: str | None = None) -> None
       runs.append(json.load(f))
   swings = [r for r in runs if r["args"]["score"] == "swing" and "seeds" in r]
   drifts = [r for r in runs if "drift" in r]
+  held = [r for r in runs if "entropy" in r]
   if not swings and not drifts:
     raise ValueError(f"none of {paths} is a swing search or a drift run of gait_search.py")
-  fig, (left, right) = plt.subplots(1, 2, figsize=(14, 5.5),
-                                    gridspec_kw=dict(width_ratios=[1, 1.2]))
+  ratios = [1, 1.2] + ([0.8] if held else [])
+  fig, axes = plt.subplots(1, len(ratios), figsize=(7 * sum(ratios) / 1.1, 5.5),
+                           gridspec_kw=dict(width_ratios=ratios))
+  left, right = axes[0], axes[1]
+  if held:
+    _plot_held(axes[2], held)
   labels = sorted({describe(r["args"]) for r in swings})
   targets = sorted({r["args"]["target"] for r in swings})
   palettes = dict(brax=iter(["tab:red", "tab:orange", "tab:pink", "tab:brown"]),
@@ -383,6 +442,11 @@ def main():
   parser.add_argument("--drift", type=int, default=None, metavar="POSES",
                       help="no search: roll out POSES random constant actions and report how fast "
                            "the torso still moves over the last 2.5 s")
+  parser.add_argument("--held", type=int, default=None, metavar="POSES",
+                      help="no search (halfcheetah): H(s) of POSES held poses over 1000-step "
+                           "episodes, with --noise")
+  parser.add_argument("--noise", type=float, default=None, metavar="SIGMA",
+                      help="--held: the std of the Gaussian action noise added every step")
   parser.add_argument("--plot", nargs="+", default=None, metavar=("PNG", "JSON"),
                       help="no run: draw the swing searches and drifts in the JSONs into PNG")
   parser.add_argument("--reference", default=None,
@@ -416,6 +480,12 @@ def main():
     parser.error("--drift takes a number of poses (at least 1) and no --score: it searches nothing")
   if args.sim == "brax" and (args.edits or args.no_cut):
     parser.error("--edits and --no-cut change blx's body: --sim blx only (Brax takes --brax-set)")
+  if args.held is not None and (args.held < 1 or args.body != "halfcheetah"
+                                or args.drift is not None or args.score != "speed"):
+    parser.error("--held takes a number of poses (at least 1), --body halfcheetah (whose episodes "
+                 "never end) and neither --drift nor --score")
+  if (args.noise is not None) != (args.held is not None) or (args.noise or 0) < 0:
+    parser.error("--noise (a std >= 0) goes with --held, and --held needs it")
   if args.brax_set and args.sim != "brax":
     parser.error("--brax-set edits a Brax config: --sim brax only (blx takes --edits)")
   try:
@@ -427,6 +497,14 @@ def main():
   else:
     rollout, motors = blx_rollout(args.body, json.loads(args.edits) if args.edits else None,
                                   cut=not args.no_cut)
+  if args.held is not None:
+    found = held_pose_entropy(rollout, motors, args.held, args.noise)
+    print(f"{args.held} held poses, action noise {args.noise:g}: H(s) {found['entropy']:.3f}, "
+          f"x velocity std {found['std']:.3f} m/s over the last 500 steps of 1000")
+    if args.out:
+      with open(args.out, "w") as f:
+        json.dump(dict(args=vars(args), **found), f, indent=1)
+    return
   if args.drift is not None:
     found = constant_action_drift(rollout, motors, args.drift)
     print(f"{args.drift} constant actions: the torso's |mean x velocity| over the last 2.5 s is "

@@ -1,6 +1,7 @@
 """benchmarks/gait_search.py: gaits for any number of motors, the swing score is the RMS distance
-from the target speed, the drift reads the last 2.5 s of constant actions, blx's halfcheetah comes
-to rest under them (Brax v1's does not), and bad input is refused by name."""
+from the target speed, the drift reads the last 2.5 s of constant actions, held poses are scored by
+the rows' H(s) protocol, blx's halfcheetah comes to rest under constant actions (Brax v1's does
+not), and bad input is refused by name."""
 
 import json
 import sys
@@ -64,6 +65,24 @@ def test_drift_reads_the_last_two_and_a_half_seconds():
   assert found["share_above_0_1"] == np.mean(np.abs(bias) > 0.1)
 
 
+def test_held_poses_are_scored_on_the_last_500_steps_with_the_given_noise():
+  seen = {}
+
+  def rollout(params, steps, noise):
+    seen.update(steps=steps, noise=noise)
+    v = np.full((len(params), steps - gait_search.WARM, 1), 4.0)   # early steps: not scored
+    v[:, -500:, 0] = params[:, 2 * 6:2 * 6 + 1]                    # then at the first bias
+    return v, np.zeros(len(params)), np.ones(len(params), bool)
+
+  found = gait_search.held_pose_entropy(rollout, num_motors=6, poses=8, sigma=0.3, seed=1)
+  assert seen["steps"] == 1000 and seen["noise"].shape == (1000, 8, 6)
+  assert abs(seen["noise"].std() - 0.3) < 0.01
+  # eight poses, each at its own speed for all 500 scored steps: eight equal bins, ln 8
+  np.testing.assert_allclose(found["entropy"], np.log(8), rtol=1e-5)
+  bias = np.random.default_rng(1).uniform(-1, 1, (8, 6))[:, 0]
+  np.testing.assert_allclose(found["pose_speed"], bias)
+
+
 def test_blx_halfcheetah_comes_to_rest_under_constant_actions():
   # Brax v1's halfcheetah at the paper's step keeps moving: median 0.19 m/s, 74% of 96 poses
   # above 0.1 m/s (RESULTS session 45). Sound physics brings a held pose to rest.
@@ -72,6 +91,14 @@ def test_blx_halfcheetah_comes_to_rest_under_constant_actions():
   found = gait_search.constant_action_drift(rollout, motors, poses=12)
   assert all(found["alive"])
   assert found["median"] < 0.05 and found["share_above_0_1"] <= 0.25
+  # the action noise reaches the motors: none (or zeros) leaves a rollout as it was, some moves it
+  params = np.zeros((2, 3 * motors + 1))
+  params[:, 2 * motors:3 * motors] = 0.4
+  quiet, _, _ = rollout(params, 40)
+  zeros, _, _ = rollout(params, 40, np.zeros((40, 2, motors)))
+  noisy, _, _ = rollout(params, 40, 0.5 * np.random.default_rng(0).standard_normal((40, 2, motors)))
+  np.testing.assert_array_equal(quiet, zeros)
+  assert quiet.shape == (2, 40 - gait_search.WARM, 1) and np.abs(noisy - quiet).max() > 0.05
 
 
 @pytest.mark.parametrize("argv, message", [
@@ -88,6 +115,10 @@ def test_blx_halfcheetah_comes_to_rest_under_constant_actions():
     (["--sim", "brax", "--brax-config", "x.txt", "--brax-set", "dt=a"], "must be a number"),
     (["--sim", "blx", "--seeds", "0"], "--seeds and --iters must be at least 1"),
     ([], "--sim is required (blx or brax) unless --plot"),
+    (["--sim", "blx", "--held", "8", "--noise", "0.1"], "--body halfcheetah"),
+    (["--sim", "blx", "--body", "halfcheetah", "--held", "8"], "--held needs it"),
+    (["--sim", "blx", "--body", "halfcheetah", "--noise", "0.1"], "--noise (a std >= 0) goes"),
+    (["--sim", "blx", "--body", "halfcheetah", "--held", "8", "--noise", "-1"], "a std >= 0"),
     (["--plot", "a.json", "b.json"], "--plot takes the PNG to write"),
     (["--plot", "a.png", "missing.json"], "--plot: [Errno 2]"),
 ])
@@ -119,9 +150,14 @@ def test_the_study_plot_takes_only_this_scripts_runs(tmp_path):
   swing = tmp_path / "swing.json"
   swing.write_text(json.dumps(dict(args={**args, "score": "swing", "target": 1.5},
                                    seeds={"0": dict(elite_last=-0.1)})))
+  held = tmp_path / "held.json"
+  held.write_text(json.dumps(dict(args=args, entropy=5.0, sigma=0.1)))
   png = tmp_path / "study.png"
   gait_search.plot_study([str(drift), str(swing)], str(png))
-  assert png.stat().st_size > 10_000
+  two_panels = png.stat().st_size
+  assert two_panels > 10_000
+  gait_search.plot_study([str(drift), str(swing), str(held)], str(png))
+  assert png.stat().st_size > two_panels   # the held poses' panel is drawn
   other = tmp_path / "other.json"
   other.write_text(json.dumps(dict(args={**args, "score": "energy"}, seeds={})))
   with pytest.raises(ValueError, match="is a swing search or a drift run"):
