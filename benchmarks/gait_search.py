@@ -253,15 +253,20 @@ def brax_rollout(config_path: str, body: str, sets: dict[str, float] | None = No
   return rollout, n
 
 
+def held_poses(rng: np.random.Generator, poses: int, num_motors: int) -> np.ndarray:
+  """Gaits ``[poses, 3n + 1]`` of amplitude 0: constant actions drawn uniformly from [-1, 1]^n."""
+  params = np.zeros((poses, 3 * num_motors + 1))
+  params[:, 2 * num_motors:3 * num_motors] = rng.uniform(-1, 1, (poses, num_motors))
+  params[:, 3 * num_motors] = 1.0
+  return params
+
+
 def constant_action_drift(rollout, num_motors: int, poses: int, seed: int = 0) -> dict:
   """Rolls out ``poses`` constant actions drawn uniformly from [-1, 1]^n (no gait: amplitude 0) and
   returns how fast each torso still moves along x over the episode's last 2.5 s (``|mean vx|``,
   m/s). A body at rest under a constant torque does no work, so on sound physics it comes to a
   stop; a body that keeps moving is driven by the simulator, not by a gait."""
-  n = num_motors
-  params = np.zeros((poses, 3 * n + 1))
-  params[:, 2 * n:3 * n] = np.random.default_rng(seed).uniform(-1, 1, (poses, n))
-  params[:, 3 * n] = 1.0
+  params = held_poses(np.random.default_rng(seed), poses, num_motors)
   velocities, _, alive = rollout(params)
   drift = np.abs(velocities[:, -int(round(2.5 / DT)):, 0].mean(1))
   return dict(drift=drift.tolist(), alive=alive.tolist(), median=float(np.median(drift)),
@@ -277,12 +282,9 @@ def held_pose_entropy(rollout, num_motors: int, poses: int, sigma: float, seed: 
   [-scale, scale] (``metrics.particle.entropy``). The reading for a DIAYN_FULL row whose skills
   are poses."""
   from blx.metrics import particle
-  n = num_motors
   rng = np.random.default_rng(seed)
-  params = np.zeros((poses, 3 * n + 1))
-  params[:, 2 * n:3 * n] = rng.uniform(-1, 1, (poses, n))
-  params[:, 3 * n] = 1.0
-  noise = sigma * rng.standard_normal((steps, poses, n))
+  params = held_poses(rng, poses, num_motors)
+  noise = sigma * rng.standard_normal((steps, poses, num_motors))
   velocities, _, alive = rollout(params, steps, noise)
   x = velocities[:, -last:, 0]
   h = float(particle.entropy(np.asarray(x.reshape(-1), np.float32), bins=1000,
