@@ -64,12 +64,13 @@ SCORES = ("speed", "energy", "swing")
 BRAX_SETTABLE = ("substeps", "dt", "friction", "angular_damping", "baumgarte_erp")
 
 
-def gait_actions(params: np.ndarray, t: int) -> np.ndarray:
-  """Actions ``[P, n]`` of gaits ``params [P, 3n + 1]`` at env step ``t``."""
-  n = (params.shape[1] - 1) // 3
-  amp, phase = np.clip(params[:, :n], 0, 1.5), params[:, n:2 * n]
-  bias, freq = np.clip(params[:, 2 * n:3 * n], -1, 1), np.clip(params[:, 3 * n:], 0.5, 4.0)
-  return np.clip(amp * np.sin(2 * np.pi * freq * t * DT + phase) + bias, -1, 1)
+def gait_actions(params, t, xp=np):
+  """Actions ``[..., n]`` of gaits ``params [..., 3n + 1]`` at env step ``t``; ``xp`` is numpy
+  (blx's rollouts) or jax.numpy (Brax v1's, traced)."""
+  n = (params.shape[-1] - 1) // 3
+  amp, phase = xp.clip(params[..., :n], 0, 1.5), params[..., n:2 * n]
+  bias, freq = xp.clip(params[..., 2 * n:3 * n], -1, 1), xp.clip(params[..., 3 * n:], 0.5, 4.0)
+  return xp.clip(amp * xp.sin(2 * xp.pi * freq * t * DT + phase) + bias, -1, 1)
 
 
 def cross_entropy(score, num_motors: int, seed: int, iters: int) -> dict:
@@ -220,14 +221,10 @@ def brax_rollout(config_path: str, body: str, sets: dict[str, float] | None = No
   n, dims = system.num_actuators, (2 if body == "ant" else 1)
 
   def one(params, noise):
-    amp, phase = jnp.clip(params[:n], 0, 1.5), params[n:2 * n]
-    bias, freq = jnp.clip(params[2 * n:3 * n], -1, 1), jnp.clip(params[3 * n], 0.5, 4.0)
-
     def step(carry, xs):
       t, eps = xs
       qp, alive, start = carry
-      action = jnp.clip(amp * jnp.sin(2 * jnp.pi * freq * t * DT + phase) + bias, -1, 1)
-      action = jnp.clip(action + eps, -1, 1)
+      action = jnp.clip(gait_actions(params, t, jnp) + eps, -1, 1)
       qp, _ = system.step(qp, action)
       alive &= jnp.all(jnp.isfinite(qp.pos[0]))
       if body == "ant":
