@@ -249,7 +249,7 @@ def _budget(rows: list[dict]) -> float | None:
 ONE_MODE = 0.1  # a mode balance below it: the least visited mode has under 5 % of the states
 
 
-def _segments(name: str) -> list[runs.Segment]:
+def run_segments(name: str) -> list[runs.Segment]:
   """The provenance segments of the run ``name`` (as ``logged`` names it): a committed row's
   ``NAME_provenance.json``, or ``NAME/provenance.json``; ``[]`` where it has none."""
   for directory, filename in ((os.path.dirname(name),
@@ -297,7 +297,7 @@ def progress(*directories: str) -> str:
              if finished else "under training")
     out += [f"{name}: {objective} on {env}, {state}; its last evaluation every seed reached, at "
             f"{last / 1e6:.1f} M{of} env steps per seed:", ""]
-    segments = _segments(name)
+    segments = run_segments(name)
     logged_by = runs.segment_at(segments, last)  # its goals: the LGR's label
     out += VERDICT_HEADER + verdicts(dict(
         objective=objective, env=env, per_seed=per_seed,
@@ -330,7 +330,7 @@ def draw_progress(path: str, *directories: str) -> list[str]:
     if isinstance(config, str):
       continue
     env, objective = config["env"], config["objective"]
-    rows = ablations.with_lgr_goals(rows, _segments(name))
+    rows = ablations.with_lgr_goals(rows, run_segments(name))
     curves = [c for c in _paper_curves(rows, env, objective) if c[-2][0] or c[-1][0]]
     if curves:
       base = os.path.basename(name)
