@@ -34,6 +34,7 @@ Prints the tables; ``--out`` writes them as JSON, ``--plot`` one figure: the met
 from __future__ import annotations
 
 import argparse
+import csv
 import json
 import os
 import sys
@@ -65,7 +66,6 @@ def read_rows(path: str) -> tuple[str, list[dict]]:
   """A metrics.csv's rows, with LGRs not scored on the paper's goals moved out of their keys
   (``ablations.with_lgr_goals`` with the run's provenance), and the run's name as
   ``paper_tables.logged`` gives it."""
-  import csv
   if not path.endswith("metrics.csv") or not os.path.isfile(path):
     raise ValueError(f"{path}: give a run's metrics.csv or a committed NAME_metrics.csv")
   with open(path) as f:
@@ -98,12 +98,14 @@ def series(rows: list[dict], metric: str) -> dict[int, list[dict]]:
   return dict(sorted(by_seed.items()))
 
 
-def seed_break(seed_rows: list[dict], metric: str, sign: int) -> dict:
+def seed_break(seed_rows: list[dict], metric: str, sign: int) -> dict | None:
   """The step between consecutive evaluations where ``metric`` changed most in the worse
   direction (``sign``), whether the last evaluation came back (nearer the value before than
-  after), and the diagnostics before and at it."""
+  after), and the diagnostics before and at it; None for a seed whose metric never worsened."""
   values = np.array([float(r[metric]) for r in seed_rows])
   worsening = sign * np.diff(values)
+  if worsening.max() <= 0:
+    return None
   i = int(np.argmax(worsening)) + 1
   before, after, final = values[i - 1], values[i], values[-1]
   return {"env_steps": float(seed_rows[i]["env_steps"]),
@@ -126,8 +128,9 @@ def rise_shares(by_seed: dict[int, list[dict]], breaks: dict) -> dict:
       for previous, row in zip(seed_rows, seed_rows[1:]):
         pair = _number(previous, key), _number(row, key)
         if None not in pair:
-          (at if float(row["env_steps"]) == breaks[seed]["env_steps"] else elsewhere).append(
-              pair[1] > pair[0])
+          at_break = (breaks[seed] is not None
+                      and float(row["env_steps"]) == breaks[seed]["env_steps"])
+          (at if at_break else elsewhere).append(pair[1] > pair[0])
     if at:
       base = float(np.mean(elsewhere)) if elsewhere else None
       # two-sided binomial test of the rises at the breaks against the base rate
@@ -212,6 +215,9 @@ def report(name: str, metric: str, breaks: dict, shares: dict, windows: dict | N
            + " | ".join(f"{k} before -> at" for k in DIAGNOSTICS) + " |",
            "| ---: | --- | ---: | ---: | ---: | --- |" + " --- |" * len(DIAGNOSTICS)]
   for seed, b in breaks.items():
+    if b is None:
+      lines.append(f"| {seed} | never worsened | | | | |" + " |" * len(DIAGNOSTICS))
+      continue
     diag = [" -> ".join("-" if v is None else f"{v:.3g}" for v in b["diagnostics"].get(k, [None]))
             for k in DIAGNOSTICS]
     lines.append(f"| {seed} | {b['env_steps_before'] / 1e6:.1f} to {b['env_steps'] / 1e6:.1f} | "
@@ -254,7 +260,7 @@ def plot(path: str, name: str, metric: str, sign: int, by_seed: dict[int, list[d
       pairs = [(float(r["env_steps"]) / 1e6, _number(r, key)) for r in seed_rows]
       pairs = [(s, v) for s, v in pairs if v is not None]
       ax.plot(*zip(*pairs), color=colours(n % 10), lw=1.2, label=f"seed {seed}")
-      at = dict(pairs).get(breaks[seed]["env_steps"] / 1e6)
+      at = breaks[seed] and dict(pairs).get(breaks[seed]["env_steps"] / 1e6)
       if at is not None:
         ax.plot(breaks[seed]["env_steps"] / 1e6, at, "o", color=colours(n % 10), ms=7, mfc="none")
     ax.set_ylabel(key if key != metric else

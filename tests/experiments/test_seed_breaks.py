@@ -50,6 +50,22 @@ def test_each_seeds_break_is_its_largest_worsening_and_whether_it_came_back(mi_c
   assert zero["diagnostics"] == {"grad_norm": [1.0, 3.0]}  # only the columns the CSV has
 
 
+def test_a_seed_whose_metric_never_worsened_has_no_break(tmp_path, capsys):
+  mi = {0: [0.5, 0.6, 0.7], 1: [0.9, 0.4, 0.45]}
+  grad = {0: [1.0, 2.0, 3.0], 1: [1.0, 2.0, 1.0]}
+  path = _write(tmp_path / "metrics.csv", {"eval/mi": mi, "grad_norm": grad}, steps=STEPS[:3])
+  _, rows = seed_breaks.read_rows(path)
+  by_seed = seed_breaks.series(rows, "eval/mi")
+  breaks = {s: seed_breaks.seed_break(r, "eval/mi", -1) for s, r in by_seed.items()}
+  assert breaks[0] is None and breaks[1]["env_steps"] == 20e6
+  # Seed 0's two steps count as steps elsewhere (grad_norm rose at both), seed 1's second too.
+  shares = seed_breaks.rise_shares(by_seed, breaks)["grad_norm"]
+  assert (shares["breaks"], shares["steps_elsewhere"]) == (1, 3)
+  assert shares["elsewhere"] == pytest.approx(2 / 3)
+  seed_breaks.main([path, "--metric", "eval/mi", "--plot", str(tmp_path / "b.png")])
+  assert "| 0 | never worsened |" in capsys.readouterr().out
+
+
 def test_the_worse_direction_follows_the_metric_or_the_flag(mi_csv):
   assert seed_breaks.worse_direction("eval/lgr") == 1
   assert seed_breaks.worse_direction("eval/energy_distance_braxlines") == 1
