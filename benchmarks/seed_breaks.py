@@ -20,8 +20,7 @@ never reads as a break.
   elsewhere ties the breaks to PPO's updates.
 - **The windows**: each seed's mean over the evaluations between A and B million env steps
   (``--window``, inclusive) against its mean over its last ``--last`` evaluations (default 10);
-  a paired t-test
-  over seeds (scipy's ``ttest_rel``) and the count of seeds that got worse.
+  a paired t-test over seeds (scipy's ``ttest_rel``) and the count of seeds that got worse.
 - **The rank** (``--rank KEY``, e.g. ``grad_norm``): Spearman's rank correlation over seeds between
   KEY's mean over the window and the metric's final value, from ``eval.json`` (``NAME_eval.json``)
   beside the CSV where it holds the metric on the same goals, else the last evaluation. One row's
@@ -176,9 +175,12 @@ def final_values(name: str, metric: str, by_seed: dict[int, list[dict]]) -> tupl
   for path in (f"{name}_eval.json", os.path.join(name, "eval.json")):
     if os.path.isfile(path):
       with open(path) as f:
-        per_seed = ablations.final_lgr_and_balance(json.load(f)).get("per_seed", {})
-      if metric in per_seed and len(per_seed[metric]) == len(by_seed):
-        return [float(v) for v in per_seed[metric]], path
+        result = ablations.final_lgr_and_balance(json.load(f))
+      values = result.get("per_seed", {}).get(metric)
+      seeds = [int(s) for s in result.get("seeds", sorted(by_seed))]
+      if values is not None and sorted(seeds) == list(by_seed) and len(values) == len(seeds):
+        final = dict(zip(seeds, values))
+        return [float(final[seed]) for seed in by_seed], path
   return [float(r[-1][metric]) for r in by_seed.values()], "the last evaluation"
 
 

@@ -113,6 +113,9 @@ def test_the_rank_reads_the_final_metric_from_eval_json_where_it_has_it(mi_csv, 
     json.dump({"per_seed": {"eval/mi": [0.7, 0.2]}}, f)
   finals, source = seed_breaks.final_values(name, "eval/mi", by_seed)
   assert finals == [0.7, 0.2] and source.endswith("row_eval.json")
+  with open(tmp_path / "row_eval.json", "w") as f:  # the seeds it lists set the order
+    json.dump({"seeds": [1, 0], "per_seed": {"eval/mi": [0.2, 0.7]}}, f)
+  assert seed_breaks.final_values(name, "eval/mi", by_seed)[0] == [0.7, 0.2]
   # grad_norm over 10-30 M: seed 0 5/3, seed 1 1.5; the larger goes with the larger final MI
   ranked = seed_breaks.rank(by_seed, "grad_norm", (10e6, 30e6), finals)
   assert ranked["window_means"] == pytest.approx([5 / 3, 1.5])
