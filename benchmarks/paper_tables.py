@@ -204,23 +204,26 @@ def logged(*directories: str) -> list[tuple[str, dict | str, list[dict], bool]]:
   if not paths:
     raise ValueError(f"no metrics.csv under {', '.join(directories)}: give run directories, or "
                      "the --out of paper_tables.py")
-  found = []
-  for path in paths:
-    prefix = path[:-len("metrics.csv")]
-    name = prefix.rstrip("_/" + os.sep) or path
-    config: dict | str = f"no {os.path.basename(prefix)}config.json beside its metrics.csv"
-    if os.path.exists(prefix + "config.json"):
-      try:
-        with open(prefix + "config.json") as f:
-          read = json.load(f)
-        config = (read if isinstance(read, dict) and {"env", "objective"} <= set(read) else
-                  f"{prefix}config.json is not a blx run config (it names no env and objective)")
-      except (OSError, ValueError) as e:
-        config = f"{prefix}config.json is unreadable ({e})"
-    with open(path) as f:
-      rows = list(csv.DictReader(f))
-    found.append((name, config, rows, os.path.exists(prefix + "eval.json")))
-  return found
+  return [logged_run(path) for path in paths]
+
+
+def logged_run(path: str) -> tuple[str, dict | str, list[dict], bool]:
+  """One run's ``(name, config, metrics.csv rows, finished)`` as ``logged`` gives them, from the
+  path of its ``metrics.csv`` or ``NAME_metrics.csv``."""
+  prefix = path[:-len("metrics.csv")]
+  name = prefix.rstrip("_/" + os.sep) or path
+  config: dict | str = f"no {os.path.basename(prefix)}config.json beside its metrics.csv"
+  if os.path.exists(prefix + "config.json"):
+    try:
+      with open(prefix + "config.json") as f:
+        read = json.load(f)
+      config = (read if isinstance(read, dict) and {"env", "objective"} <= set(read) else
+                f"{prefix}config.json is not a blx run config (it names no env and objective)")
+    except (OSError, ValueError) as e:
+      config = f"{prefix}config.json is unreadable ({e})"
+  with open(path) as f:
+    rows = list(csv.DictReader(f))
+  return name, config, rows, os.path.exists(prefix + "eval.json")
 
 
 def _paper_curves(rows: list[dict], env: str, objective: str):

@@ -33,7 +33,6 @@ Prints the tables; ``--out`` writes them as JSON, ``--plot`` one figure: the met
 from __future__ import annotations
 
 import argparse
-import csv
 import json
 import os
 import sys
@@ -64,12 +63,10 @@ def worse_direction(metric: str, worse: str | None = None) -> int:
 def read_rows(path: str) -> tuple[str, list[dict]]:
   """A metrics.csv's rows, with LGRs not scored on the paper's goals moved out of their keys
   (``ablations.with_lgr_goals`` with the run's provenance), and the run's name as
-  ``paper_tables.logged`` gives it."""
+  ``paper_tables.logged_run`` gives it."""
   if not path.endswith("metrics.csv") or not os.path.isfile(path):
     raise ValueError(f"{path}: give a run's metrics.csv or a committed NAME_metrics.csv")
-  with open(path) as f:
-    rows = list(csv.DictReader(f))
-  name = path[:-len("metrics.csv")].rstrip("_/" + os.sep) or path
+  name, _, rows, _ = paper_tables.logged_run(path)
   return name, ablations.with_lgr_goals(rows, paper_tables.run_segments(name))
 
 
