@@ -14,7 +14,8 @@
 (dotted paths into the env's desc, e.g. ``'{"global_options.iterations": 4}'``), ``--config`` (PPO
 settings over the env's row), ``--options`` (objective options over the row's, e.g.
 ``'{"target_seed": 3}'``) and ``--steps`` are for ablations: a row trained with any of them is not
-the paper's protocol. ``--first-seed N`` trains seeds N .. N + seeds - 1, so that one row's seeds
+the paper's protocol: ``--compare``, ``--progress`` and ``--plot`` name a run's PPO settings that
+are not the original's (``not_original``, from its ``config.json``). ``--first-seed N`` trains seeds N .. N + seeds - 1, so that one row's seeds
 can be split over processes or device calls; ``--compare DIR1 DIR2`` then merges the ``eval.json``
 files found at the same path under each directory into one row (their seeds must not overlap).
 ``--eval-metrics`` also logs the paper's metrics at every evaluation during
@@ -35,6 +36,7 @@ from __future__ import annotations
 
 import argparse
 import csv
+import dataclasses
 import glob
 import json
 import math
@@ -179,18 +181,57 @@ VERDICT_HEADER = ["| env | algorithm | metric | blx (seeds) | paper (10) | Welch
                   "| --- | --- | --- | ---: | ---: | ---: | ---: | --- |"]
 
 
+# PPO settings that set a run's length and bookkeeping, not how it learns: ``not_original`` leaves
+# them out.
+BOOKKEEPING = ("num_timesteps", "num_evals", "num_eval_envs", "checkpoint_env_state")
+
+
+def not_original(config: dict) -> list[str]:
+  """The PPO settings of a run's config (its ``config.json``) that differ from the original's for
+  its env (``ppo_defaults``), each as ``"KEY VALUE (the original's: DEFAULT)"``, the run's length
+  and bookkeeping (``BOOKKEEPING``) left out. A row with any is an option's result, not the
+  paper's."""
+  defaults = dataclasses.asdict(ppo_defaults(config["env"]))
+  out = []
+  for key, value in sorted((config.get("ppo") or {}).items()):
+    if key in BOOKKEEPING or key not in defaults:
+      continue
+    if (tuple(value) if isinstance(value, list) else value) != defaults[key]:
+      out.append(f"{key} {value} (the original's: {defaults[key]})")
+  return out
+
+
+def options_line(name: str, config: dict) -> list[str]:
+  """A line naming ``name``'s settings that are not the original's (``not_original``), or none."""
+  changed = not_original(config)
+  return ([f"{name}: settings not the original's: {'; '.join(changed)}. An option's result, not "
+           "the paper's row."] if changed else [])
+
+
 def compare(*directories: str) -> str:
   """The verdict table for every ``eval.json`` under the directories; files at the same path under
-  several directories are parts of one row (``merge``)."""
+  several directories are parts of one row (``merge``). Below it, each row's PPO settings that are
+  not the original's (``options_line``, from the ``config.json`` beside its ``eval.json``)."""
   rows = list(VERDICT_HEADER)
   parts: dict[str, list[dict]] = {}
+  notes: dict[str, list[str]] = {}
   for directory in directories:
     for path in glob.glob(os.path.join(directory, "**", "*eval.json"), recursive=True):
+      rel = os.path.relpath(path, directory)
       with open(path) as f:
-        parts.setdefault(os.path.relpath(path, directory), []).append(json.load(f))
+        parts.setdefault(rel, []).append(json.load(f))
+      prefix = path[:-len("eval.json")]
+      if os.path.exists(prefix + "config.json"):
+        with open(prefix + "config.json") as f:
+          config = json.load(f)
+        if isinstance(config, dict) and "env" in config:
+          seen = notes.setdefault(rel, [])
+          seen += [line for line in options_line(prefix.rstrip("_/" + os.sep), config)
+                   if line not in seen]
   for rel in sorted(parts):
     rows += verdicts(merge(parts[rel]))
-  return "\n".join(rows)
+  extra = [line for rel in sorted(notes) for line in notes[rel]]
+  return "\n".join(rows + ([""] + extra if extra else []))
 
 
 def logged(*directories: str) -> list[tuple[str, dict | str, list[dict], bool]]:
@@ -300,6 +341,7 @@ def progress(*directories: str) -> str:
              if finished else "under training")
     out += [f"{name}: {objective} on {env}, {state}; its last evaluation every seed reached, at "
             f"{last / 1e6:.1f} M{of} env steps per seed:", ""]
+    out += options_line(name, config) + ([""] if not_original(config) else [])
     segments = run_segments(name)
     logged_by = runs.segment_at(segments, last)  # its goals: the LGR's label
     out += VERDICT_HEADER + verdicts(dict(
@@ -339,6 +381,8 @@ def draw_progress(path: str, *directories: str) -> list[str]:
       base = os.path.basename(name)
       title = f"{env} {objective}" + ("" if base in (objective, f"objective={objective}")
                                       else f" ({base})")
+      changed = [setting.split(" (")[0] for setting in not_original(config)]
+      title += f", option {', '.join(changed)}" if changed else ""
       panels.append((title + ("" if finished else ", under training"),
                      _budget(rows) or 0.0, curves))
   if not panels:

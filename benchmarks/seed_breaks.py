@@ -3,7 +3,7 @@ worsened most, what PPO's own statistics did in that chunk, and whether the seed
 the row, a window of evaluations against the last ones, paired over seeds.
 
     python benchmarks/seed_breaks.py METRICS_CSV --metric eval/lgr [--worse up|down]
-        [--window A:B] [--last N] [--rank KEY] [--out JSON] [--plot PNG]
+        [--window A:B] [--last N] [--rank KEY] [--against OTHER_CSV] [--out JSON] [--plot PNG]
 
 METRICS_CSV is a run's ``metrics.csv`` (trained with ``--eval-metrics``) or a committed row's
 ``NAME_metrics.csv`` under ``benchmarks/paper/``. An LGR that was not scored on the paper's goals
@@ -25,6 +25,12 @@ never reads as a break.
   KEY's mean over the window and the metric's final value, from ``eval.json`` (``NAME_eval.json``)
   beside the CSV where it holds the metric on the same goals, else the last evaluation. One row's
   seeds make it exploratory.
+- **Against another run** (``--against OTHER_CSV``, with ``--window``; e.g. the same row trained
+  with another setting): over the window, each seed's mean of the metric and of each PPO statistic
+  and its largest worsening between two evaluations there, in this run and in the other, paired
+  by seed number (the seeds both have): means, the paired t-test, Welch's t-test, and the count of
+  seeds at which this run's value is the lower. The window puts both runs on the same env steps,
+  so an unfinished run is compared with a finished one where both were evaluated.
 
 Prints the tables; ``--out`` writes them as JSON, ``--plot`` one figure: the metric and
 ``grad_norm`` against env steps, one line per seed, each break marked.
@@ -71,8 +77,13 @@ def read_rows(path: str) -> tuple[str, list[dict]]:
 
 
 def _number(row: dict, key: str) -> float | None:
+  """``row[key]`` as a float; None where it is missing, empty or not finite (a chunk that logged
+  NaN is no evaluation of the key)."""
   value = row.get(key)
-  return None if value in (None, "") else float(value)
+  if value in (None, ""):
+    return None
+  value = float(value)
+  return value if np.isfinite(value) else None
 
 
 def series(rows: list[dict], metric: str) -> dict[int, list[dict]]:
@@ -166,6 +177,47 @@ def compare_windows(by_seed: dict[int, list[dict]], metric: str, sign: int,
           "seeds_worse": int(np.sum(sign * (late - early) > 0))}
 
 
+def window_worst(seed_rows: list[dict], metric: str, sign: int,
+                 window: tuple[float, float]) -> float:
+  """The largest worsening of ``metric`` (``sign``: its worse direction) between consecutive
+  evaluations within ``window`` env steps (inclusive); 0 where it never worsened there."""
+  values = [float(r[metric]) for r in seed_rows if window[0] <= float(r["env_steps"]) <= window[1]]
+  if len(values) < 2:
+    raise ValueError(f"a seed has {len(values)} evaluation(s) of {metric!r} between "
+                     f"{window[0] / 1e6:g} and {window[1] / 1e6:g} M env steps; the window needs "
+                     "two")
+  return float(max(0.0, (sign * np.diff(values)).max()))
+
+
+def against(by_seed: dict[int, list[dict]], other: dict[int, list[dict]], metric: str, sign: int,
+            window: tuple[float, float]) -> dict:
+  """This run (``by_seed``) against ``other`` over ``window``, paired by seed number: per row (the
+  metric's mean, its largest worsening, each PPO statistic's mean that both logged), both runs'
+  per-seed values, means and stds, the paired and Welch t-tests' p, and the seeds at which this
+  run's value is the lower."""
+  from scipy import stats
+  seeds = sorted(set(by_seed) & set(other))
+  if len(seeds) < 2:
+    raise ValueError(f"--against: the runs share seeds {seeds}; a paired test needs two")
+  measures = [(metric, lambda r: window_means(r, metric, window)),
+              (f"{metric}, largest worsening", lambda r: window_worst(r, metric, sign, window))]
+  measures += [(key, lambda r, key=key: window_means(r, key, window)) for key in DIAGNOSTICS
+               if all(any(key in row for row in runs[s]) for runs in (by_seed, other)
+                      for s in seeds)]
+  out = {"window": list(window), "seeds": seeds, "rows": {}}
+  for label, measure in measures:
+    this = np.array([measure(by_seed[s]) for s in seeds])
+    that = np.array([measure(other[s]) for s in seeds])
+    paired = stats.ttest_rel(this, that)
+    welch = stats.ttest_ind(this, that, equal_var=False)
+    out["rows"][label] = {"this": this.tolist(), "other": that.tolist(),
+                          "this_mean": float(this.mean()), "this_std": float(this.std()),
+                          "other_mean": float(that.mean()), "other_std": float(that.std()),
+                          "paired_t": float(paired.statistic), "paired_p": float(paired.pvalue),
+                          "welch_p": float(welch.pvalue), "seeds_lower": int(np.sum(this < that))}
+  return out
+
+
 def final_values(name: str, metric: str, by_seed: dict[int, list[dict]]) -> tuple[list, str]:
   """Each seed's final ``metric``: from the run's eval.json where it holds the metric on the same
   goals (``ablations.final_lgr_and_balance``), else the last evaluation; and which it was."""
@@ -207,7 +259,8 @@ def parse_window(text: str) -> tuple[float, float]:
 
 
 def report(name: str, metric: str, breaks: dict, shares: dict, windows: dict | None,
-           ranked: dict | None, finals_from: str | None) -> str:
+           ranked: dict | None, finals_from: str | None, compared: dict | None = None,
+           other_name: str | None = None) -> str:
   lines = [f"{name}: {metric}, the break of each seed (the largest worsening between two "
            "evaluations)", "",
            "| seed | between (M env steps) | before | after | final | came back | "
@@ -242,33 +295,62 @@ def report(name: str, metric: str, breaks: dict, shares: dict, windows: dict | N
     lines += ["", f"Spearman over seeds, {ranked['key']}'s mean over the window against the final "
               f"{metric} ({finals_from}): {ranked['spearman']:+.2f} (p {ranked['p']:.3f}); "
               "exploratory"]
+  if compared:
+    w, n = compared["window"], len(compared["seeds"])
+    lines += ["", f"Against {other_name}, {w[0] / 1e6:g}-{w[1] / 1e6:g} M, each seed's value "
+              f"there (seeds {', '.join(map(str, compared['seeds']))}):", "",
+              f"| over the window | {os.path.basename(name)} | {os.path.basename(other_name)} | "
+              "paired t, p | Welch p | seeds where the first is lower |",
+              "| --- | ---: | ---: | ---: | ---: | ---: |"]
+    for label, v in compared["rows"].items():
+      lines.append(f"| {label} | {v['this_mean']:.3f} ± {v['this_std']:.3f} | "
+                   f"{v['other_mean']:.3f} ± {v['other_std']:.3f} | "
+                   f"{v['paired_t']:+.2f}, {v['paired_p']:.3f} | {v['welch_p']:.3f} | "
+                   f"{v['seeds_lower']} of {n} |")
   return "\n".join(lines)
 
 
 def plot(path: str, name: str, metric: str, sign: int, by_seed: dict[int, list[dict]],
-         breaks: dict) -> None:
+         breaks: dict, other: tuple[str, dict, dict] | None = None,
+         window: tuple[float, float] | None = None) -> None:
+  """The metric and ``grad_norm`` against env steps, a line per seed, each seed's break circled;
+  with ``other`` (``(name, by_seed, breaks)`` of the run compared with), that run beside it on
+  the same axes' scales, and ``window`` shaded in both."""
   import matplotlib
   matplotlib.use("Agg")
   import matplotlib.pyplot as plt
-  keys = [metric] + (["grad_norm"] if "grad_norm" in next(iter(by_seed.values()))[0] else [])
-  fig, axes = plt.subplots(len(keys), 1, figsize=(9, 3.2 * len(keys)), sharex=True, squeeze=False)
+  runs_ = [(name, by_seed, breaks)] + ([other] if other else [])
+  keys = [metric] + (["grad_norm"] if all(
+      "grad_norm" in next(iter(b.values()))[0] for _, b, _ in runs_) else [])
+  fig, axes = plt.subplots(len(keys), len(runs_), figsize=(9 if not other else 14, 3.2 * len(keys)),
+                           sharex=True, sharey="row", squeeze=False)
   colours = plt.get_cmap("tab10")
-  for row, key in enumerate(keys):
-    ax = axes[row][0]
-    for n, (seed, seed_rows) in enumerate(by_seed.items()):
-      pairs = [(float(r["env_steps"]) / 1e6, _number(r, key)) for r in seed_rows]
-      pairs = [(s, v) for s, v in pairs if v is not None]
-      ax.plot(*zip(*pairs), color=colours(n % 10), lw=1.2, label=f"seed {seed}")
-      at = breaks[seed] and dict(pairs).get(breaks[seed]["env_steps"] / 1e6)
-      if at is not None:
-        ax.plot(breaks[seed]["env_steps"] / 1e6, at, "o", color=colours(n % 10), ms=7, mfc="none")
-    ax.set_ylabel(key if key != metric else
-                  f"{key} ({'higher' if sign > 0 else 'lower'} is worse)")
-    ax.grid(alpha=0.3)
-  axes[0][0].set_title(f"{os.path.basename(name)}: {metric} and PPO's gradient norm per seed; "
-                       "circles: each seed's largest worsening", fontsize=10)
-  axes[-1][0].set_xlabel("env steps per seed (millions)")
+  for column, (run_name, run_seeds, run_breaks) in enumerate(runs_):
+    for row, key in enumerate(keys):
+      ax = axes[row][column]
+      for n, (seed, seed_rows) in enumerate(run_seeds.items()):
+        pairs = [(float(r["env_steps"]) / 1e6, _number(r, key)) for r in seed_rows]
+        pairs = [(s, v) for s, v in pairs if v is not None]
+        ax.plot(*zip(*pairs), color=colours(n % 10), lw=1.2, label=f"seed {seed}")
+        at = run_breaks[seed] and dict(pairs).get(run_breaks[seed]["env_steps"] / 1e6)
+        if at is not None:
+          ax.plot(run_breaks[seed]["env_steps"] / 1e6, at, "o", color=colours(n % 10), ms=7,
+                  mfc="none")
+      if window and other:
+        ax.axvspan(window[0] / 1e6, window[1] / 1e6, color="0.85", zorder=0)
+      if column == 0:
+        ax.set_ylabel(key if key != metric else
+                      f"{key} ({'higher' if sign > 0 else 'lower'} is worse)")
+      ax.grid(alpha=0.3)
+    axes[-1][column].set_xlabel("env steps per seed (millions)")
+    title = (f"{os.path.basename(run_name)}: {metric} and PPO's gradient norm per seed; "
+             "circles: each seed's largest worsening" if not other else
+             os.path.basename(run_name) + (" (grey: the window compared)" if window else ""))
+    axes[0][column].set_title(title, fontsize=10)
   axes[0][0].legend(fontsize=7, ncol=5)
+  if other:
+    fig.suptitle(f"{metric} and PPO's gradient norm per seed (before clipping, where clipped); "
+                 "circles: each seed's largest worsening", fontsize=10)
   fig.tight_layout()
   fig.savefig(path, dpi=110)
   plt.close(fig)
@@ -284,12 +366,16 @@ def main(argv=None):
   parser.add_argument("--last", type=int,
                       help="evaluations at the end (default 10, or each seed's count if fewer)")
   parser.add_argument("--rank", help="a statistic to rank the final metric by, e.g. grad_norm")
+  parser.add_argument("--against", metavar="OTHER_CSV",
+                      help="another run's metrics.csv to compare with over --window, by seed")
   parser.add_argument("--out", help="write the tables as JSON")
   parser.add_argument("--plot", help="write the figure (PNG)")
   args = parser.parse_args(argv)
   try:
     if args.rank and not args.window:
       raise ValueError("--rank needs --window, the evaluations its statistic is averaged over")
+    if args.against and not args.window:
+      raise ValueError("--against needs --window, the env steps both runs are compared over")
     sign = worse_direction(args.metric, args.worse)
     name, rows = read_rows(args.metrics_csv)
     by_seed = series(rows, args.metric)
@@ -302,17 +388,28 @@ def main(argv=None):
     if args.rank:
       finals, finals_from = final_values(name, args.metric, by_seed)
       ranked = rank(by_seed, args.rank, window, finals)
+    compared, other_name = None, None
+    if args.against:
+      other_name, other_rows = read_rows(args.against)
+      compared = against(by_seed, series(other_rows, args.metric), args.metric, sign, window)
   except ValueError as e:
     parser.error(str(e))
-  print(report(name, args.metric, breaks, shares, windows, ranked, finals_from))
+  print(report(name, args.metric, breaks, shares, windows, ranked, finals_from, compared,
+               other_name))
   if args.out:
     common.write_json(args.out, {
         "run": name, "metric": args.metric, "worse": "up" if sign > 0 else "down",
         "breaks": breaks, "rise_shares": shares, "windows": windows,
-        "rank": ranked and {**ranked, "finals_from": finals_from}})
+        "rank": ranked and {**ranked, "finals_from": finals_from},
+        "against": compared and {"run": other_name, **compared}})
     print(f"wrote {args.out}")
   if args.plot:
-    plot(args.plot, name, args.metric, sign, by_seed, breaks)
+    other = None
+    if compared:
+      other_by_seed = series(other_rows, args.metric)
+      other = (other_name, other_by_seed,
+               {seed: seed_break(r, args.metric, sign) for seed, r in other_by_seed.items()})
+    plot(args.plot, name, args.metric, sign, by_seed, breaks, other, window)
     print(f"wrote {args.plot}")
 
 

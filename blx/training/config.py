@@ -41,6 +41,11 @@ class PPOConfig:
   starts took DIAYN on Ant at 16,384 envs to the paper's MI (benchmarks/RESULTS.md, session 9).
   ``True`` or ``False`` forces it; ``starts_staggered`` is the resolved value.
 
+  ``max_grad_norm`` (default ``None``, Braxlines' PPO: plain Adam): where set, each SGD step's
+  gradient is scaled down to this global norm, over all the learner's parameters together
+  (policy, value and an objective's discriminator), before Adam. An option, not the original's;
+  the logged ``grad_norm`` is the norm before clipping.
+
   ``checkpoint_env_state`` (default on): checkpoints hold the whole training state, so a resumed
   run continues exactly where it stopped. False leaves the envs' state out (the simulator state of
   every env: 47 of the 51 MB per seed of the Ant rows' 2,048 envs), so that a checkpoint can be

@@ -244,6 +244,32 @@ def test_progress_reads_a_row_under_training_at_its_last_evaluation_every_seed_r
       paper_tables.progress(str(tmp_path)))
 
 
+def test_a_row_trained_with_a_setting_not_the_originals_is_named_as_an_option(tmp_path):
+  key = "eval/energy_distance"
+  run = _run_dir(tmp_path / "clip" / "dmin" / "objective=gail", "gail", "halfcheetah",
+                 [(1e6, 10.0, {key: [0.4, 0.5, 0.6]})])
+  plain = _run_dir(tmp_path / "plain" / "dmin" / "objective=gail", "gail", "halfcheetah",
+                   [(1e6, 10.0, {key: [0.4, 0.5, 0.6]})])
+  config = json.loads((run / "config.json").read_text())
+  # the budget and evaluation count are the run's bookkeeping; the clip is how it learns
+  config["ppo"] = {"max_grad_norm": 5, "num_evals": 40, "num_timesteps": 10**6}
+  (run / "config.json").write_text(json.dumps(config))
+  assert paper_tables.not_original(config) == ["max_grad_norm 5 (the original's: None)"]
+  line = (f"{run}: settings not the original's: max_grad_norm 5 (the original's: None). An "
+          "option's result, not the paper's row.")
+  text = paper_tables.progress(str(tmp_path))
+  assert line in text and f"{plain}: settings" not in text
+  for directory in (run, plain):
+    (directory / "eval.json").write_text(json.dumps(
+        {"objective": "gail", "env": "halfcheetah", "seeds": [0, 1, 2],
+         "per_seed": {key: [0.4, 0.5, 0.6]}}))
+  table = paper_tables.compare(str(tmp_path)).splitlines()
+  assert table[-1] == line and sum("settings not the original's" in r for r in table) == 1
+  titles = paper_tables.draw_progress(str(tmp_path / "rows.png"), str(tmp_path))
+  assert sorted(titles) == ["halfcheetah gail, option max_grad_norm 5; blx's window",
+                            "halfcheetah gail; blx's window"]
+
+
 def test_progress_names_runs_it_cannot_read_against_the_paper(tmp_path, monkeypatch, capsys):
   _run_dir(tmp_path / "push", "task", "ant_push", [(1e6, 10.0, {"eval/episode_score": [1, 2]})],
            seeds=(0, 1))

@@ -154,6 +154,43 @@ def test_the_command_writes_the_tables_and_the_figure(mi_csv, tmp_path, capsys):
   assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
 
+def test_against_another_run_pairs_the_seeds_both_have_over_the_window(mi_csv, tmp_path, capsys):
+  # The other run holds its MI flat at 0.8 (seed 0) and 1.3 (seeds 1, 2) and logged no grad_norm;
+  # only seeds 0 and 1 are in both, and only the statistics both logged are compared.
+  other_mi = {0: [0.8] * 5, 1: [1.3] * 5, 2: [1.3] * 5}
+  other = _write(tmp_path / "other_metrics.csv", {"eval/mi": other_mi}, seeds=(0, 1, 2))
+  _, rows = seed_breaks.read_rows(mi_csv)
+  _, other_rows = seed_breaks.read_rows(other)
+  compared = seed_breaks.against(seed_breaks.series(rows, "eval/mi"),
+                                 seed_breaks.series(other_rows, "eval/mi"), "eval/mi", -1,
+                                 (20e6, 40e6))
+  assert compared["seeds"] == [0, 1] and set(compared["rows"]) == {
+      "eval/mi", "eval/mi, largest worsening"}
+  means = compared["rows"]["eval/mi"]
+  # 20-40 M: seed 0 (1.0, 0.4, 0.45), seed 1 (1.1, 1.2, 0.9); differences -11/60 and -14/60
+  assert means["this"] == pytest.approx([37 / 60, 64 / 60])
+  assert means["other"] == pytest.approx([0.8, 1.3])
+  assert means["paired_t"] == pytest.approx(-25 / 3) and means["seeds_lower"] == 2
+  worst = compared["rows"]["eval/mi, largest worsening"]
+  assert worst["this"] == pytest.approx([0.6, 0.3]) and worst["other"] == [0.0, 0.0]
+  out, png = tmp_path / "against.json", tmp_path / "against.png"
+  seed_breaks.main([mi_csv, "--metric", "eval/mi", "--window", "20:40", "--against", other,
+                    "--out", str(out), "--plot", str(png)])
+  printed = capsys.readouterr().out
+  assert "| eval/mi | 0.842 ± 0.225 | 1.050 ± 0.250 | -8.33, 0.076 |" in printed
+  assert json.loads(out.read_text())["against"]["run"].endswith("other")
+  assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_a_non_finite_value_is_no_evaluation(tmp_path):
+  mi = {0: [0.9, float("nan"), 0.8, 0.85, 0.9], 1: [1.0, 1.1, 1.2, float("inf"), 1.15]}
+  _, rows = seed_breaks.read_rows(_write(tmp_path / "metrics.csv", {"eval/mi": mi}))
+  by_seed = seed_breaks.series(rows, "eval/mi")
+  assert [float(r["env_steps"]) for r in by_seed[0]] == [10e6, 30e6, 40e6, 50e6]
+  one = seed_breaks.seed_break(by_seed[1], "eval/mi", -1)  # 1.2 at 30 M, then 1.15 at 50 M
+  assert (one["env_steps_before"], one["env_steps"], one["after"]) == (30e6, 50e6, 1.15)
+
+
 @pytest.mark.parametrize("argv, message", [
     (["--metric", "eval/lgr"], "'eval/lgr' is not in the metrics.csv; it has eval/mi"),
     (["--metric", "eval/mi", "--window", "60:70"], "no evaluation holds 'eval/mi' between 60"),
@@ -163,6 +200,7 @@ def test_the_command_writes_the_tables_and_the_figure(mi_csv, tmp_path, capsys):
      "--rank 'loss/kl' is not in the metrics.csv"),
     (["--metric", "eval/mi", "--window", "ten:20"], "give A:B in millions of env steps"),
     (["--metric", "eval/mi", "--window", "30:20"], "A must not exceed B"),
+    (["--metric", "eval/mi", "--against", "x_metrics.csv"], "--against needs --window"),
 ])
 def test_bad_input_is_named(mi_csv, argv, message, capsys):
   with pytest.raises(SystemExit) as raised:
@@ -177,3 +215,9 @@ def test_a_file_that_is_not_a_metrics_csv_and_a_seed_with_one_evaluation_are_nam
   _, rows = seed_breaks.read_rows(path)
   with pytest.raises(ValueError, match="seed 0 has 1 evaluation"):
     seed_breaks.series(rows, "eval/mi")
+  _, two = seed_breaks.read_rows(_write(tmp_path / "two_metrics.csv", {"eval/mi": MI}))
+  lone = seed_breaks.series(two, "eval/mi")
+  with pytest.raises(ValueError, match=r"share seeds \[0\]; a paired test needs two"):
+    seed_breaks.against(lone, {0: lone[0]}, "eval/mi", -1, (10e6, 50e6))
+  with pytest.raises(ValueError, match="has 1 evaluation.s. of 'eval/mi' between 50 and 60"):
+    seed_breaks.window_worst(lone[0], "eval/mi", -1, (50e6, 60e6))

@@ -401,3 +401,37 @@ def test_a_checkpoint_from_before_a_setting_existed_resumes_with_its_default(tmp
   with pytest.raises(ValueError, match="different config"):
     training.train(env, reach_latent(), config.replace(checkpoint_env_state=False),
                    progress=False, checkpoint_dir=directory, resume=True)
+
+
+def test_max_grad_norm_scales_each_gradient_to_its_global_norm_before_adam():
+  """With ``max_grad_norm`` the optimiser's updates are plain Adam's on gradients scaled to that
+  global norm (by hand), and differ from unclipped Adam's where the gradients' norms change from
+  step to step (one Adam step alone hardly depends on the gradient's scale)."""
+  import dataclasses
+
+  import optax
+
+  from blx.training import ppo
+  params = {"w": jnp.ones((3, 2)), "b": jnp.zeros(2)}
+  grads = [{"w": jnp.full((3, 2), 4.0), "b": jnp.array([3.0, -2.0])},
+           {"w": jnp.full((3, 2), 0.1), "b": jnp.array([-0.2, 0.05])}]
+
+  def updates(optimizer, gradients):
+    state, out = optimizer.init(params), []
+    for g in gradients:
+      u, state = optimizer.update(g, state, params)
+      out.append(u)
+    return out
+
+  def scaled(g, limit):
+    norm = float(optax.global_norm(g))
+    return jax.tree.map(lambda x: x * min(1.0, limit / norm), g)
+
+  clipped = updates(ppo.make_learner(3, 2, task(), dataclasses.replace(
+      SMALL, max_grad_norm=1.0)).optimizer, grads)
+  by_hand = updates(optax.adam(SMALL.learning_rate), [scaled(g, 1.0) for g in grads])
+  plain = updates(ppo.make_learner(3, 2, task(), SMALL).optimizer, grads)
+  assert float(optax.global_norm(grads[0])) > 1.0 > float(optax.global_norm(grads[1]))
+  for ours, theirs in zip(clipped, by_hand):
+    jax.tree.map(lambda a, b: np.testing.assert_allclose(a, b, rtol=1e-6, atol=1e-9), ours, theirs)
+  assert not np.allclose(clipped[1]["w"], plain[1]["w"], rtol=1e-3)
