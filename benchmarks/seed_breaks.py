@@ -202,7 +202,8 @@ def against(by_seed: dict[int, list[dict]], other: dict[int, list[dict]], metric
   measures = [(metric, lambda r: window_means(r, metric, window)),
               (f"{metric}, largest worsening", lambda r: window_worst(r, metric, sign, window))]
   measures += [(key, lambda r, key=key: window_means(r, key, window)) for key in DIAGNOSTICS
-               if all(any(key in row for row in runs[s]) for runs in (by_seed, other)
+               if all(any(_number(row, key) is not None and window[0] <= float(row["env_steps"])
+                          <= window[1] for row in runs[s]) for runs in (by_seed, other)
                       for s in seeds)]
   out = {"window": list(window), "seeds": seeds, "rows": {}}
   for label, measure in measures:
@@ -349,8 +350,8 @@ def plot(path: str, name: str, metric: str, sign: int, by_seed: dict[int, list[d
     axes[0][column].set_title(title, fontsize=10)
   axes[0][0].legend(fontsize=7, ncol=5)
   if other:
-    fig.suptitle(f"{metric} and PPO's gradient norm per seed (before clipping, where clipped); "
-                 "circles: each seed's largest worsening", fontsize=10)
+    fig.suptitle(f"{metric} and PPO's gradient norm per seed (before any clipping); circles: each "
+                 "seed's largest worsening", fontsize=10)
   fig.tight_layout()
   fig.savefig(path, dpi=110)
   plt.close(fig)
@@ -388,27 +389,25 @@ def main(argv=None):
     if args.rank:
       finals, finals_from = final_values(name, args.metric, by_seed)
       ranked = rank(by_seed, args.rank, window, finals)
-    compared, other_name = None, None
+    compared, other = None, None
     if args.against:
       other_name, other_rows = read_rows(args.against)
-      compared = against(by_seed, series(other_rows, args.metric), args.metric, sign, window)
+      other_by_seed = series(other_rows, args.metric)
+      compared = against(by_seed, other_by_seed, args.metric, sign, window)
+      other = (other_name, other_by_seed,
+               {seed: seed_break(r, args.metric, sign) for seed, r in other_by_seed.items()})
   except ValueError as e:
     parser.error(str(e))
   print(report(name, args.metric, breaks, shares, windows, ranked, finals_from, compared,
-               other_name))
+               other and other[0]))
   if args.out:
     common.write_json(args.out, {
         "run": name, "metric": args.metric, "worse": "up" if sign > 0 else "down",
         "breaks": breaks, "rise_shares": shares, "windows": windows,
         "rank": ranked and {**ranked, "finals_from": finals_from},
-        "against": compared and {"run": other_name, **compared}})
+        "against": compared and {"run": other[0], **compared}})
     print(f"wrote {args.out}")
   if args.plot:
-    other = None
-    if compared:
-      other_by_seed = series(other_rows, args.metric)
-      other = (other_name, other_by_seed,
-               {seed: seed_break(r, args.metric, sign) for seed, r in other_by_seed.items()})
     plot(args.plot, name, args.metric, sign, by_seed, breaks, other, window)
     print(f"wrote {args.plot}")
 

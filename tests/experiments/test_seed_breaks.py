@@ -155,10 +155,13 @@ def test_the_command_writes_the_tables_and_the_figure(mi_csv, tmp_path, capsys):
 
 
 def test_against_another_run_pairs_the_seeds_both_have_over_the_window(mi_csv, tmp_path, capsys):
-  # The other run holds its MI flat at 0.8 (seed 0) and 1.3 (seeds 1, 2) and logged no grad_norm;
-  # only seeds 0 and 1 are in both, and only the statistics both logged are compared.
+  # The other run holds its MI flat at 0.8 (seed 0) and 1.3 (seeds 1, 2) and has a grad_norm
+  # column with no value in it; only seeds 0 and 1 are in both, and only the statistics both
+  # logged are compared.
   other_mi = {0: [0.8] * 5, 1: [1.3] * 5, 2: [1.3] * 5}
-  other = _write(tmp_path / "other_metrics.csv", {"eval/mi": other_mi}, seeds=(0, 1, 2))
+  other = _write(tmp_path / "other_metrics.csv",
+                 {"eval/mi": other_mi, "grad_norm": {s: [""] * 5 for s in (0, 1, 2)}},
+                 seeds=(0, 1, 2))
   _, rows = seed_breaks.read_rows(mi_csv)
   _, other_rows = seed_breaks.read_rows(other)
   compared = seed_breaks.against(seed_breaks.series(rows, "eval/mi"),
