@@ -15,12 +15,13 @@
 settings over the env's row), ``--options`` (objective options over the row's, e.g.
 ``'{"target_seed": 3}'``) and ``--steps`` are for ablations: a row trained with any of them is not
 the paper's protocol: ``--compare``, ``--progress`` and ``--plot`` name a run's PPO settings that
-are not the original's (``not_original``, from its ``config.json``). ``--first-seed N`` trains seeds N .. N + seeds - 1, so that one row's seeds
-can be split over processes or device calls; ``--compare DIR1 DIR2`` then merges the ``eval.json``
-files found at the same path under each directory into one row (their seeds must not overlap).
-``--eval-metrics`` also logs the paper's metrics at every evaluation during
-training (e.g. D-min's mode shares), at the cost of a quick evaluation each time (4 episodes;
-``--eval-protocol final``: the final evaluation's 10, ``runs.EVAL_PROTOCOLS``).
+are not the original's (``not_original``, from its ``config.json``). ``--first-seed N`` trains
+seeds N .. N + seeds - 1, so that one row's seeds can be split over processes or device calls;
+``--compare DIR1 DIR2`` then merges the ``eval.json`` files found at the same path under each
+directory into one row (their seeds must not overlap). ``--eval-metrics`` also logs the paper's
+metrics at every evaluation during training (e.g. D-min's mode shares), at the cost of a quick
+evaluation each time (4 episodes; ``--eval-protocol final``: the final evaluation's 10,
+``runs.EVAL_PROTOCOLS``).
 
 MI-max: gcrl, diayn, cdiayn, diayn_full on the env's "vel" indices (Ant and Humanoid: xy velocity;
 HalfCheetah: x velocity), obs_scale 5, spectral norm on; D-min: gail, gail2, airl, mle to the
@@ -222,12 +223,16 @@ def compare(*directories: str) -> str:
         parts.setdefault(rel, []).append(json.load(f))
       prefix = path[:-len("eval.json")]
       if os.path.exists(prefix + "config.json"):
-        with open(prefix + "config.json") as f:
-          config = json.load(f)
-        if isinstance(config, dict) and "env" in config:
-          seen = notes.setdefault(rel, [])
-          seen += [line for line in options_line(prefix.rstrip("_/" + os.sep), config)
-                   if line not in seen]
+        seen = notes.setdefault(rel, [])
+        try:
+          with open(prefix + "config.json") as f:
+            config = json.load(f)
+          lines = (options_line(prefix.rstrip("_/" + os.sep), config)
+                   if isinstance(config, dict) and "env" in config else [])
+        except (OSError, ValueError) as e:
+          lines = [f"{prefix}config.json is unreadable ({e}): its settings were not checked "
+                   "against the original's"]
+        seen += [line for line in lines if line not in seen]
   for rel in sorted(parts):
     rows += verdicts(merge(parts[rel]))
   extra = [line for rel in sorted(notes) for line in notes[rel]]
@@ -341,7 +346,8 @@ def progress(*directories: str) -> str:
              if finished else "under training")
     out += [f"{name}: {objective} on {env}, {state}; its last evaluation every seed reached, at "
             f"{last / 1e6:.1f} M{of} env steps per seed:", ""]
-    out += options_line(name, config) + ([""] if not_original(config) else [])
+    named = options_line(name, config)
+    out += named + [""] * bool(named)
     segments = run_segments(name)
     logged_by = runs.segment_at(segments, last)  # its goals: the LGR's label
     out += VERDICT_HEADER + verdicts(dict(

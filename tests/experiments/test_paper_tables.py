@@ -265,6 +265,11 @@ def test_a_row_trained_with_a_setting_not_the_originals_is_named_as_an_option(tm
          "per_seed": {key: [0.4, 0.5, 0.6]}}))
   table = paper_tables.compare(str(tmp_path)).splitlines()
   assert table[-1] == line and sum("settings not the original's" in r for r in table) == 1
+  broken = tmp_path / "broken" / "dmin" / "objective=gail"
+  broken.mkdir(parents=True)
+  (broken / "eval.json").write_text((run / "eval.json").read_text())
+  (broken / "config.json").write_text("{not json")
+  assert f"{broken}/config.json is unreadable (" in paper_tables.compare(str(tmp_path / "broken"))
   titles = paper_tables.draw_progress(str(tmp_path / "rows.png"), str(tmp_path))
   assert sorted(titles) == ["halfcheetah gail, option max_grad_norm 5; blx's window",
                             "halfcheetah gail; blx's window"]
