@@ -187,24 +187,21 @@ VERDICT_HEADER = ["| env | algorithm | metric | blx (seeds) | paper (10) | Welch
 BOOKKEEPING = ("num_timesteps", "num_evals", "num_eval_envs", "checkpoint_env_state")
 
 
-def not_original(config: dict) -> list[str]:
+def not_original(config: dict) -> dict[str, tuple]:
   """The PPO settings of a run's config (its ``config.json``) that differ from the original's for
-  its env (``ppo_defaults``), each as ``"KEY VALUE (the original's: DEFAULT)"``, the run's length
-  and bookkeeping (``BOOKKEEPING``) left out. A row with any is an option's result, not the
+  its env (``ppo_defaults``), ``{key: (the run's value, the original's)}`` in key order, the run's
+  length and bookkeeping (``BOOKKEEPING``) left out. A row with any is an option's result, not the
   paper's."""
   defaults = dataclasses.asdict(ppo_defaults(config["env"]))
-  out = []
-  for key, value in sorted((config.get("ppo") or {}).items()):
-    if key in BOOKKEEPING or key not in defaults:
-      continue
-    if (tuple(value) if isinstance(value, list) else value) != defaults[key]:
-      out.append(f"{key} {value} (the original's: {defaults[key]})")
-  return out
+  return {key: (value, defaults[key]) for key, value in sorted((config.get("ppo") or {}).items())
+          if key not in BOOKKEEPING and key in defaults
+          and (tuple(value) if isinstance(value, list) else value) != defaults[key]}
 
 
 def options_line(name: str, config: dict) -> list[str]:
   """A line naming ``name``'s settings that are not the original's (``not_original``), or none."""
-  changed = not_original(config)
+  changed = [f"{key} {value} (the original's: {default})"
+             for key, (value, default) in not_original(config).items()]
   return ([f"{name}: settings not the original's: {'; '.join(changed)}. An option's result, not "
            "the paper's row."] if changed else [])
 
@@ -223,15 +220,10 @@ def compare(*directories: str) -> str:
         parts.setdefault(rel, []).append(json.load(f))
       prefix = path[:-len("eval.json")]
       if os.path.exists(prefix + "config.json"):
+        config = read_config(prefix)
+        lines = (options_line(prefix.rstrip("_/" + os.sep), config) if isinstance(config, dict)
+                 else [f"{config}: its settings were not checked against the original's"])
         seen = notes.setdefault(rel, [])
-        try:
-          with open(prefix + "config.json") as f:
-            config = json.load(f)
-          lines = (options_line(prefix.rstrip("_/" + os.sep), config)
-                   if isinstance(config, dict) and "env" in config else [])
-        except (OSError, ValueError) as e:
-          lines = [f"{prefix}config.json is unreadable ({e}): its settings were not checked "
-                   "against the original's"]
         seen += [line for line in lines if line not in seen]
   for rel in sorted(parts):
     rows += verdicts(merge(parts[rel]))
@@ -253,6 +245,18 @@ def logged(*directories: str) -> list[tuple[str, dict | str, list[dict], bool]]:
   return [logged_run(path) for path in paths]
 
 
+def read_config(prefix: str) -> dict | str:
+  """The run config ``PREFIXconfig.json`` (``prefix``: a run directory with its separator, or a
+  committed row's ``DIR/NAME_``), or a string saying why it cannot be read."""
+  try:
+    with open(prefix + "config.json") as f:
+      read = json.load(f)
+  except (OSError, ValueError) as e:
+    return f"{prefix}config.json is unreadable ({e})"
+  return (read if isinstance(read, dict) and {"env", "objective"} <= set(read) else
+          f"{prefix}config.json is not a blx run config (it names no env and objective)")
+
+
 def logged_run(path: str) -> tuple[str, dict | str, list[dict], bool]:
   """One run's ``(name, config, metrics.csv rows, finished)`` as ``logged`` gives them, from the
   path of its ``metrics.csv`` or ``NAME_metrics.csv``."""
@@ -260,13 +264,7 @@ def logged_run(path: str) -> tuple[str, dict | str, list[dict], bool]:
   name = prefix.rstrip("_/" + os.sep) or path
   config: dict | str = f"no {os.path.basename(prefix)}config.json beside its metrics.csv"
   if os.path.exists(prefix + "config.json"):
-    try:
-      with open(prefix + "config.json") as f:
-        read = json.load(f)
-      config = (read if isinstance(read, dict) and {"env", "objective"} <= set(read) else
-                f"{prefix}config.json is not a blx run config (it names no env and objective)")
-    except (OSError, ValueError) as e:
-      config = f"{prefix}config.json is unreadable ({e})"
+    config = read_config(prefix)
   with open(path) as f:
     rows = list(csv.DictReader(f))
   return name, config, rows, os.path.exists(prefix + "eval.json")
@@ -387,7 +385,7 @@ def draw_progress(path: str, *directories: str) -> list[str]:
       base = os.path.basename(name)
       title = f"{env} {objective}" + ("" if base in (objective, f"objective={objective}")
                                       else f" ({base})")
-      changed = [setting.split(" (")[0] for setting in not_original(config)]
+      changed = [f"{key} {value}" for key, (value, _) in not_original(config).items()]
       title += f", option {', '.join(changed)}" if changed else ""
       panels.append((title + ("" if finished else ", under training"),
                      _budget(rows) or 0.0, curves))

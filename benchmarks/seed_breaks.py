@@ -148,10 +148,16 @@ def rise_shares(by_seed: dict[int, list[dict]], breaks: dict) -> dict:
   return shares
 
 
+def in_window(seed_rows: list[dict], key: str, window: tuple[float, float]) -> list[float]:
+  """``key``'s values (``_number``) in the evaluations between ``window`` env steps (inclusive),
+  in env-step order."""
+  values = [_number(r, key) for r in seed_rows if window[0] <= float(r["env_steps"]) <= window[1]]
+  return [v for v in values if v is not None]
+
+
 def window_means(seed_rows: list[dict], key: str, window: tuple[float, float]) -> float:
   """Mean of ``key`` over the evaluations between ``window`` env steps (inclusive)."""
-  values = [_number(r, key) for r in seed_rows if window[0] <= float(r["env_steps"]) <= window[1]]
-  values = [v for v in values if v is not None]
+  values = in_window(seed_rows, key, window)
   if not values:
     raise ValueError(f"no evaluation holds {key!r} between {window[0] / 1e6:g} and "
                      f"{window[1] / 1e6:g} M env steps")
@@ -181,7 +187,7 @@ def window_worst(seed_rows: list[dict], metric: str, sign: int,
                  window: tuple[float, float]) -> float:
   """The largest worsening of ``metric`` (``sign``: its worse direction) between consecutive
   evaluations within ``window`` env steps (inclusive); 0 where it never worsened there."""
-  values = [float(r[metric]) for r in seed_rows if window[0] <= float(r["env_steps"]) <= window[1]]
+  values = in_window(seed_rows, metric, window)
   if len(values) < 2:
     raise ValueError(f"a seed has {len(values)} evaluation(s) of {metric!r} between "
                      f"{window[0] / 1e6:g} and {window[1] / 1e6:g} M env steps; the window needs "
@@ -202,9 +208,7 @@ def against(by_seed: dict[int, list[dict]], other: dict[int, list[dict]], metric
   measures = [(metric, lambda r: window_means(r, metric, window)),
               (f"{metric}, largest worsening", lambda r: window_worst(r, metric, sign, window))]
   measures += [(key, lambda r, key=key: window_means(r, key, window)) for key in DIAGNOSTICS
-               if all(any(_number(row, key) is not None and window[0] <= float(row["env_steps"])
-                          <= window[1] for row in runs[s]) for runs in (by_seed, other)
-                      for s in seeds)]
+               if all(in_window(runs[s], key, window) for runs in (by_seed, other) for s in seeds)]
   out = {"window": list(window), "seeds": seeds, "rows": {}}
   for label, measure in measures:
     this = np.array([measure(by_seed[s]) for s in seeds])
