@@ -168,8 +168,9 @@ def plot(directory: str, name: str = "episode_count.json") -> str:
   ax.grid(alpha=0.3)
   ax.legend(fontsize=8)
   spec = runs.read_spec(directory)
-  ax.set_title(f"{common.run_label(spec)}: the same policies read\nfrom fewer or more "
-               f"episodes (of {result['pool']} per seed)", fontsize=10)
+  ax.set_title(common.fit_title(f"{common.run_label(spec)}: the same policies read\nfrom fewer "
+                                f"or more episodes (of {result['pool']} per seed)", fig),
+               fontsize=10)
   fig.tight_layout()
   out = os.path.join(directory, "episode_count.png")
   fig.savefig(out, dpi=120)

@@ -275,7 +275,7 @@ def plot(directory: str) -> str:
 
 def _save(fig, plt, directory: str, title: str) -> str:
   """Titles ``fig``, writes it to ``directory/falls.png`` and returns the path."""
-  fig.suptitle(title, fontsize=10)
+  fig.suptitle(common.fit_title(title, fig), fontsize=10)
   fig.tight_layout()
   path = os.path.join(directory, "falls.png")
   fig.savefig(path, dpi=120)

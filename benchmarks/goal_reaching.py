@@ -178,10 +178,10 @@ def plot(result: dict, path: str) -> str:
   # a JSON written before session 41 has no goal_draw: its goals were the partitionable draw
   goals = {"braxlines": "the paper's goals", "partitionable": "goals of the partitionable draw"}[
       result.get("goal_draw", "partitionable")]
-  fig.suptitle(f"{result['label']}, {actions} actions, {goals}\nLGR {s['lgr'][0]:.2f}; with "
-               f"each goal's best latent {s['best_lgr'][0]:.2f}; sitting at the mean state nearest "
-               f"each goal {s['reach_lgr'][0]:.2f} (lower is better; means over seeds)",
-               fontsize=10)
+  fig.suptitle(common.fit_title(
+      f"{result['label']}, {actions} actions, {goals}\nLGR {s['lgr'][0]:.2f}; with each goal's "
+      f"best latent {s['best_lgr'][0]:.2f}; sitting at the mean state nearest each goal "
+      f"{s['reach_lgr'][0]:.2f} (lower is better; means over seeds)", fig), fontsize=10)
   fig.tight_layout(rect=(0, 0.1, 1, 1))
   fig.savefig(path, dpi=120)
   plt.close(fig)

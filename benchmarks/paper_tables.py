@@ -15,9 +15,9 @@
 settings over the env's row), ``--options`` (objective options over the row's, e.g.
 ``'{"target_seed": 3}'``) and ``--steps`` are for ablations: a row trained with any of them is not
 the paper's protocol: ``--compare``, ``--progress`` and ``--plot`` name a run's PPO settings that
-are not the original's (``not_original``, from its ``config.json``). ``--first-seed N`` trains
-seeds N .. N + seeds - 1, so that one row's seeds can be split over processes or device calls;
-``--compare DIR1 DIR2`` then merges the ``eval.json`` files found at the same path under each
+are not the original's (``common.not_original``, from its ``config.json``). ``--first-seed N``
+trains seeds N .. N + seeds - 1, so that one row's seeds can be split over processes or device
+calls; ``--compare DIR1 DIR2`` then merges the ``eval.json`` files found at the same path under each
 directory into one row (their seeds must not overlap). ``--eval-metrics`` also logs the paper's
 metrics at every evaluation during training (e.g. D-min's mode shares), at the cost of a quick
 evaluation each time (4 episodes; ``--eval-protocol final``: the final evaluation's 10,
@@ -37,7 +37,6 @@ from __future__ import annotations
 
 import argparse
 import csv
-import dataclasses
 import glob
 import json
 import math
@@ -47,6 +46,9 @@ import textwrap
 
 from blx.experiments import cli, runs, sweep
 from blx.training.config import ppo_defaults
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import common  # noqa: E402  (not_original)
 
 # The paper's rows (Tables 3 and 4; 10 seeds): env -> algorithm -> metric -> (mean, std). -LGR and
 # -energy distance as printed; larger is better for every one.
@@ -182,26 +184,11 @@ VERDICT_HEADER = ["| env | algorithm | metric | blx (seeds) | paper (10) | Welch
                   "| --- | --- | --- | ---: | ---: | ---: | ---: | --- |"]
 
 
-# PPO settings that set a run's length and bookkeeping, not how it learns: ``not_original`` leaves
-# them out.
-BOOKKEEPING = ("num_timesteps", "num_evals", "num_eval_envs", "checkpoint_env_state")
-
-
-def not_original(config: dict) -> dict[str, tuple]:
-  """The PPO settings of a run's config (its ``config.json``) that differ from the original's for
-  its env (``ppo_defaults``), ``{key: (the run's value, the original's)}`` in key order, the run's
-  length and bookkeeping (``BOOKKEEPING``) left out. A row with any is an option's result, not the
-  paper's."""
-  defaults = dataclasses.asdict(ppo_defaults(config["env"]))
-  return {key: (value, defaults[key]) for key, value in sorted((config.get("ppo") or {}).items())
-          if key not in BOOKKEEPING and key in defaults
-          and (tuple(value) if isinstance(value, list) else value) != defaults[key]}
-
-
 def options_line(name: str, config: dict) -> list[str]:
-  """A line naming ``name``'s settings that are not the original's (``not_original``), or none."""
-  changed = [f"{key} {value} (the original's: {default})"
-             for key, (value, default) in not_original(config).items()]
+  """A line naming ``name``'s settings that are not the original's (``common.not_original``), or
+  none."""
+  changed = [f"{key} {value} (the original's: {default})" for key, (value, default)
+             in common.not_original(config["env"], config.get("ppo")).items()]
   return ([f"{name}: settings not the original's: {'; '.join(changed)}. An option's result, not "
            "the paper's row."] if changed else [])
 
@@ -385,7 +372,8 @@ def draw_progress(path: str, *directories: str) -> list[str]:
       base = os.path.basename(name)
       title = f"{env} {objective}" + ("" if base in (objective, f"objective={objective}")
                                       else f" ({base})")
-      changed = [f"{key} {value}" for key, (value, _) in not_original(config).items()]
+      changed = [f"{key} {value}" for key, (value, _)
+                 in common.not_original(env, config.get("ppo")).items()]
       title += f", option {', '.join(changed)}" if changed else ""
       panels.append((title + ("" if finished else ", under training"),
                      _budget(rows) or 0.0, curves))

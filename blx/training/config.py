@@ -44,7 +44,8 @@ class PPOConfig:
   ``max_grad_norm`` (default ``None``, Braxlines' PPO: plain Adam): where set, each SGD step's
   gradient is scaled down to this global norm, over all the learner's parameters together
   (policy, value and an objective's discriminator), before Adam. An option, not the original's;
-  the logged ``grad_norm`` is the norm before clipping.
+  the logged ``grad_norm`` is the norm before clipping, and ``grad_clipped`` the share of SGD
+  steps the clip scaled down (logged only where it is set).
 
   ``checkpoint_env_state`` (default on): checkpoints hold the whole training state, so a resumed
   run continues exactly where it stopped. False leaves the envs' state out (the simulator state of

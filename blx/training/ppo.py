@@ -349,7 +349,9 @@ def sgd_step(learner: Learner, carry, inputs):
   post_update = learner.objective.post_update
   if post_update is not None:  # state outside the gradient, e.g. spectral-norm vectors
     params = params.replace(objective=post_update(params.objective, _transitions(batch)))
-  metrics["grad_norm"] = optax.global_norm(grads)
+  metrics["grad_norm"] = norm = optax.global_norm(grads)
+  if learner.config.max_grad_norm:  # 1 where the clip scaled this step down; averaged: its share
+    metrics["grad_clipped"] = (norm > learner.config.max_grad_norm).astype(jnp.float32)
   return (params, opt_state, stats), metrics
 
 

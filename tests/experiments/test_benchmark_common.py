@@ -80,6 +80,40 @@ def test_run_labels_name_the_env_edits_of_an_ablation_run():
   assert common.run_label(plain, "seed 1") == "airl on humanoid, seed 1"
 
 
+def test_fit_title_wraps_each_line_to_the_figures_width_and_keeps_every_word():
+  import matplotlib
+  matplotlib.use("Agg")
+  import matplotlib.pyplot as plt
+  fig = plt.figure(figsize=(5, 3))  # 5 in at 10 pt: 60 characters a line
+  first = " ".join(f"word{i}" for i in range(40))
+  fitted = common.fit_title(first + "\nshort second line", fig)
+  lines = fitted.split("\n")
+  assert len(lines) > 3 and all(len(line) <= 60 for line in lines)
+  assert lines[-1] == "short second line"  # a line break of the text stays one
+  assert " ".join(lines[:-1]) == first
+  assert common.fit_title("fits", fig) == "fits"
+  plt.close(fig)
+
+
+def test_run_labels_name_the_ppo_settings_that_are_not_the_originals():
+  from blx.experiments import runs
+  from blx.training.config import ppo_defaults
+  original = ppo_defaults("halfcheetah")
+  # the length and bookkeeping are not named; the clip and a changed learning rate are
+  spec = runs.RunSpec(env="halfcheetah", objective="gcrl", objective_options={},
+                      ppo={"max_grad_norm": 5, "learning_rate": original.learning_rate / 2,
+                           "num_timesteps": 10, "num_evals": 40,
+                           "entropy_cost": original.entropy_cost}, seeds=(0, 1))
+  assert common.run_label(spec) == (
+      f"gcrl on halfcheetah, 2 seeds; PPO learning_rate {original.learning_rate / 2} (the "
+      f"original's {original.learning_rate}), max_grad_norm 5 (the original's None)")
+  # each body is held to its own row: Ant's reward scaling is HalfCheetah's option, not Ant's
+  ant = {"reward_scaling": ppo_defaults("ant").reward_scaling}
+  assert common.not_original("ant", ant) == {}
+  assert common.not_original("halfcheetah", ant) == {
+      "reward_scaling": (ant["reward_scaling"], original.reward_scaling)}
+
+
 def test_a_json_write_that_fails_halfway_leaves_the_last_whole_file(tmp_path):
   import json
   path = str(tmp_path / "analysis.json")

@@ -47,7 +47,8 @@ def _run(directory="runs/x", speeds=(1.0, 3.0)):
   return SimpleNamespace(
       directory=directory, env=envs.episode(_Walker(), STEPS), policy=_policy,
       params={"speed": jnp.asarray(speeds)},
-      spec=SimpleNamespace(seeds=(4, 7), objective="diayn", env="point", env_params={}),
+      spec=SimpleNamespace(seeds=(4, 7), objective="diayn", env="point", env_params={},
+                           ppo={}),
       objective=objectives.diayn(num_skills=4, obs_indices=(0,)))
 
 

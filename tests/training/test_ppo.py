@@ -435,3 +435,36 @@ def test_max_grad_norm_scales_each_gradient_to_its_global_norm_before_adam():
   for ours, theirs in zip(clipped, by_hand):
     jax.tree.map(lambda a, b: np.testing.assert_allclose(a, b, rtol=1e-6, atol=1e-9), ours, theirs)
   assert not np.allclose(clipped[1]["w"], plain[1]["w"], rtol=1e-3)
+
+
+def test_grad_clipped_logs_whether_the_clip_scaled_the_step_down():
+  """``grad_clipped`` is 1 for an SGD step whose gradient norm is above ``max_grad_norm`` and 0 for
+  one below (the chunk's mean: the share of clipped steps); without a clip it is not logged."""
+  import dataclasses
+
+  from blx.training import networks, ppo
+
+  def step(config):
+    learner = ppo.make_learner(3, 2, task(), config)
+    keys = jax.random.split(jax.random.PRNGKey(0), 6)
+    params = ppo.Params(policy=learner.policy_net.init(keys[0], jnp.zeros(3)),
+                        value=learner.value_net.init(keys[1], jnp.zeros(3)), objective=None)
+    stats = networks.init_stats(3)
+    obs = jax.random.normal(keys[2], (1, 4, 3))
+    logits = learner.policy_net.apply(params.policy, learner.policy_input(stats, obs, None))
+    raw = networks.sample_raw_action(logits, keys[3])
+    reward = jax.random.normal(keys[4], (1, 4))
+    batch = ppo.Rollout(obs=obs, raw_action=raw, action=jnp.tanh(raw),
+                        log_prob=networks.log_prob_raw(logits, raw), next_obs=obs + 0.1,
+                        reward=reward, env_reward=reward, done=jnp.zeros((1, 4)),
+                        truncation=jnp.zeros((1, 4)), z=jnp.zeros((1, 4, 0)))
+    carry = (params, learner.optimizer.init(params), stats)
+    return ppo.sgd_step(learner, carry, (batch, keys[5]))[1]
+
+  plain = step(SMALL)
+  norm = float(plain["grad_norm"])
+  assert "grad_clipped" not in plain and norm > 0
+  for limit, clipped in ((norm / 2, 1.0), (norm * 2, 0.0)):
+    metrics = step(dataclasses.replace(SMALL, max_grad_norm=limit))
+    assert float(metrics["grad_norm"]) == pytest.approx(norm, rel=1e-6)  # before the clip
+    assert float(metrics["grad_clipped"]) == clipped
