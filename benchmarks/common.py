@@ -4,7 +4,6 @@ they pick its seeds and name it, and how they write their JSON."""
 
 from __future__ import annotations
 
-import dataclasses
 import json
 import os
 import textwrap
@@ -18,7 +17,7 @@ from mujoco import mjx
 from blx import envs
 from blx.experiments import runs
 from blx.training import PPOConfig
-from blx.training.config import ppo_defaults
+from blx.training import config as ppo_config
 
 
 def raw_physics_runner(env) -> Callable:
@@ -161,34 +160,16 @@ def picked_seeds(run, picked: Sequence[int], key_seed: int) -> tuple:
   return jax.tree.map(lambda x: x[at], run.params), keys
 
 
-# PPO settings that set a run's length and bookkeeping, not how it learns: ``not_original`` leaves
-# them out.
-BOOKKEEPING = ("num_timesteps", "num_evals", "num_eval_envs", "checkpoint_env_state")
-
-
-def not_original(env: str, ppo: dict | None) -> dict[str, tuple]:
-  """The PPO settings ``ppo`` (a ``RunSpec``'s, or the "ppo" of its ``config.json``) that differ
-  from the original's for ``env`` (``ppo_defaults``, the row blx trains the env with),
-  ``{key: (the run's value, the original's)}`` in key order, the run's length and bookkeeping
-  (``BOOKKEEPING``) left out. A run with any is an option's result, not the paper's row."""
-  defaults = dataclasses.asdict(ppo_defaults(env))
-  return {key: (value, defaults[key]) for key, value in sorted((ppo or {}).items())
-          if key not in BOOKKEEPING and key in defaults
-          and (tuple(value) if isinstance(value, list) else value) != defaults[key]}
-
-
 def run_label(spec, seeds: str | None = None) -> str:
   """"OBJECTIVE on ENV, N seeds" for a run's ``RunSpec``, with the env's edits where it has any
-  (an ablation) and, after it, its PPO settings that are not the original's (``not_original``;
-  e.g. "; PPO max_grad_norm 5 (the original's None)"), so that an option's figure does not read
-  as the paper's row; ``seeds`` replaces "N seeds" (e.g. "seed 3")."""
+  (an ablation) and, after it, its PPO settings off the env's row (``config.off_row_text``; e.g.
+  "; PPO max_grad_norm 5 (default None)"), so that an option's figure does not read as the
+  paper's row; ``seeds`` replaces "N seeds" (e.g. "seed 3")."""
   edits = (spec.env_params or {}).get("edits")
   where = f"{spec.env} ({', '.join(f'{k} {v}' for k, v in edits.items())})" if edits else spec.env
-  changed = not_original(spec.env, spec.ppo)
-  options = ("; PPO " + ", ".join(f"{key} {value} (the original's {default})"
-                                  for key, (value, default) in changed.items())
-             if changed else "")
-  return f"{spec.objective} on {where}, {seeds or f'{len(spec.seeds)} seeds'}{options}"
+  options = ppo_config.off_row_text(spec.env, spec.ppo)
+  return (f"{spec.objective} on {where}, {seeds or f'{len(spec.seeds)} seeds'}"
+          + (f"; {options}" if options else ""))
 
 
 def fit_title(text: str, fig, fontsize: float = 10) -> str:

@@ -15,12 +15,12 @@
 settings over the env's row), ``--options`` (objective options over the row's, e.g.
 ``'{"target_seed": 3}'``) and ``--steps`` are for ablations: a row trained with any of them is not
 the paper's protocol: ``--compare``, ``--progress`` and ``--plot`` name a run's PPO settings that
-are not the original's (``common.not_original``, from its ``config.json``). ``--first-seed N``
-trains seeds N .. N + seeds - 1, so that one row's seeds can be split over processes or device
-calls; ``--compare DIR1 DIR2`` then merges the ``eval.json`` files found at the same path under each
-directory into one row (their seeds must not overlap). ``--eval-metrics`` also logs the paper's
-metrics at every evaluation during training (e.g. D-min's mode shares), at the cost of a quick
-evaluation each time (4 episodes; ``--eval-protocol final``: the final evaluation's 10,
+are not the original's (``blx.training.config.off_row``, from its ``config.json``).
+``--first-seed N`` trains seeds N .. N + seeds - 1, so that one row's seeds can be split over
+processes or device calls; ``--compare DIR1 DIR2`` then merges the ``eval.json`` files found at the
+same path under each directory into one row (their seeds must not overlap). ``--eval-metrics`` also
+logs the paper's metrics at every evaluation during training (e.g. D-min's mode shares), at the cost
+of a quick evaluation each time (4 episodes; ``--eval-protocol final``: the final evaluation's 10,
 ``runs.EVAL_PROTOCOLS``).
 
 MI-max: gcrl, diayn, cdiayn, diayn_full on the env's "vel" indices (Ant and Humanoid: xy velocity;
@@ -45,10 +45,7 @@ import sys
 import textwrap
 
 from blx.experiments import cli, runs, sweep
-from blx.training.config import ppo_defaults
-
-sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-import common  # noqa: E402  (not_original)
+from blx.training.config import off_row, ppo_defaults
 
 # The paper's rows (Tables 3 and 4; 10 seeds): env -> algorithm -> metric -> (mean, std). -LGR and
 # -energy distance as printed; larger is better for every one.
@@ -185,10 +182,9 @@ VERDICT_HEADER = ["| env | algorithm | metric | blx (seeds) | paper (10) | Welch
 
 
 def options_line(name: str, config: dict) -> list[str]:
-  """A line naming ``name``'s settings that are not the original's (``common.not_original``), or
-  none."""
-  changed = [f"{key} {value} (the original's: {default})" for key, (value, default)
-             in common.not_original(config["env"], config.get("ppo")).items()]
+  """A line naming ``name``'s settings that are not the original's (``off_row``), or none."""
+  changed = [f"{key} {value} (the original's: {default})"
+             for key, (value, default) in off_row(config["env"], config.get("ppo")).items()]
   return ([f"{name}: settings not the original's: {'; '.join(changed)}. An option's result, not "
            "the paper's row."] if changed else [])
 
@@ -372,8 +368,7 @@ def draw_progress(path: str, *directories: str) -> list[str]:
       base = os.path.basename(name)
       title = f"{env} {objective}" + ("" if base in (objective, f"objective={objective}")
                                       else f" ({base})")
-      changed = [f"{key} {value}" for key, (value, _)
-                 in common.not_original(env, config.get("ppo")).items()]
+      changed = [f"{key} {value}" for key, (value, _) in off_row(env, config.get("ppo")).items()]
       title += f", option {', '.join(changed)}" if changed else ""
       panels.append((title + ("" if finished else ", under training"),
                      _budget(rows) or 0.0, curves))

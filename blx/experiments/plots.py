@@ -12,6 +12,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from blx import envs, metrics, training
+from blx.training.config import off_row_text
 
 __all__ = ["training_curves", "skills", "paths", "draw_paths", "root_body", "root_xy", "density",
            "discriminator", "write_all"]
@@ -336,11 +337,14 @@ def write_all(run, history: list[dict], *, seed_index: int = 0, key_seed: int = 
   out_dir = os.path.join(run.directory, "plots")
   os.makedirs(out_dir, exist_ok=True)
   written = []
+  # A run trained off its env's PPO row says so in every title, e.g. "gcrl on halfcheetah; PPO
+  # max_grad_norm 5 (default None)", so that an option's figure does not read as the row's.
+  options = off_row_text(run.spec.env, run.spec.ppo)
+  trained = f"{run.objective.name} on {run.spec.env}" + (f"; {options}" if options else "")
   if history:
     path = os.path.join(out_dir, "training_curves.png")
     training_curves(history, path, titles=curve_titles(history[0], run.objective),
-                    title=f"{run.objective.name} on {run.spec.env}: training curves",
-                    lgr_goals_from=lgr_goals_from)
+                    title=f"{trained}: training curves", lgr_goals_from=lgr_goals_from)
     written.append(path)
   if run.params is None:
     return written
@@ -349,7 +353,7 @@ def write_all(run, history: list[dict], *, seed_index: int = 0, key_seed: int = 
   plot = metrics.family_of(run.objective).plot
   length = envs.episode_steps(run.env, "plots")  # policy steps of one of the env's episodes
   key = jax.random.PRNGKey(key_seed)
-  name = f"{run.objective.name} on {run.spec.env} (seed {run.spec.seeds[seed_index]})"
+  name = f"{trained} (seed {run.spec.seeds[seed_index]})"
   if plot == "skills":
     indices = np.asarray(metrics.eval_indices(run.objective))
     latents = metrics.latents_for_evaluation(run.objective, key, 8)

@@ -5,11 +5,11 @@ from __future__ import annotations
 import dataclasses
 import math
 import operator
-from typing import Any
+from typing import Any, Mapping
 
 from blx.options import check_names
 
-__all__ = ["PPOConfig", "ppo_defaults", "check_seeds"]
+__all__ = ["PPOConfig", "ppo_defaults", "check_seeds", "off_row", "off_row_text"]
 
 MAX_INT = 2**31 - 1  # step and iteration counters are 32-bit on the device
 ORIGINAL_NUM_ENVS = 2048  # Braxlines' num_envs in every row of its defaults
@@ -223,3 +223,27 @@ def ppo_defaults(env_name: str | None = None, **overrides: Any) -> PPOConfig:
       row = _ROWS[key]
       break
   return PPOConfig(**(row or _ROWS["ant"])).replace(**overrides)
+
+
+# PPO settings that set a run's length and bookkeeping, not how it learns: ``off_row`` leaves them
+# out.
+BOOKKEEPING = ("num_timesteps", "num_evals", "num_eval_envs", "checkpoint_env_state")
+
+
+def off_row(env_name: str | None, ppo: Mapping[str, Any] | None) -> dict[str, tuple]:
+  """The settings of ``ppo`` (``PPOConfig`` field -> value, as a run's ``config.json`` holds them)
+  that differ from ``env_name``'s row (``ppo_defaults``; for Ant, Humanoid and HalfCheetah the
+  original's), ``{field: (the run's value, the row's)}`` in field order, the run's length and
+  bookkeeping (``BOOKKEEPING``) left out: a run with any learned under an option."""
+  row = dataclasses.asdict(ppo_defaults(env_name))
+  return {key: (value, row[key]) for key, value in sorted((ppo or {}).items())
+          if key not in BOOKKEEPING and key in row
+          and (tuple(value) if isinstance(value, list) else value) != row[key]}
+
+
+def off_row_text(env_name: str | None, ppo: Mapping[str, Any] | None) -> str:
+  """``off_row`` for a figure's title or a label: "PPO max_grad_norm 5 (default None)", the
+  settings joined by commas, or "" where the run has none."""
+  changed = off_row(env_name, ppo)
+  return ("PPO " + ", ".join(f"{key} {value} (default {row})"
+                             for key, (value, row) in changed.items()) if changed else "")

@@ -177,3 +177,20 @@ def test_draw_paths_draws_each_episode_in_its_skills_colour_with_its_ends_and_st
   assert [t.get_text() for t in ax.legend().get_texts()] == ["skill 0", "skill 1", "skill 2",
                                                              "start"]
   plt.close(fig)
+
+
+def test_a_run_trained_off_its_envs_ppo_row_says_so_in_its_plots_titles(tmp_path, monkeypatch):
+  from types import SimpleNamespace
+
+  from blx.experiments import runs
+  titles = []
+  monkeypatch.setattr(plots, "training_curves",
+                      lambda history, path, **kw: titles.append(kw["title"]))
+  for ppo in ({"max_grad_norm": 5, "num_evals": 40}, {"num_evals": 40}):
+    run = SimpleNamespace(directory=str(tmp_path), params=None,
+                          objective=objectives.diayn(num_skills=2, obs_indices=(0,)),
+                          spec=runs.RunSpec(env="halfcheetah", objective="diayn",
+                                            objective_options={}, ppo=ppo))
+    plots.write_all(run, [{"env_steps": 1.0, "eval/mi": [0.1]}])
+  assert titles == ["diayn on halfcheetah; PPO max_grad_norm 5 (default None): training curves",
+                    "diayn on halfcheetah: training curves"]

@@ -468,3 +468,24 @@ def test_grad_clipped_logs_whether_the_clip_scaled_the_step_down():
     metrics = step(dataclasses.replace(SMALL, max_grad_norm=limit))
     assert float(metrics["grad_norm"]) == pytest.approx(norm, rel=1e-6)  # before the clip
     assert float(metrics["grad_clipped"]) == clipped
+
+
+def test_off_row_names_the_settings_a_run_changed_from_its_envs_row():
+  from blx.training.config import off_row, off_row_text
+  row = training.ppo_defaults("halfcheetah")
+  # the length and bookkeeping are not named; the clip and a changed learning rate are, in field
+  # order; a setting at the row's value (a list read from JSON as the row's tuple) is not
+  ppo = {"max_grad_norm": 5, "learning_rate": row.learning_rate / 2, "num_timesteps": 10,
+         "num_evals": 40, "entropy_cost": row.entropy_cost}
+  assert off_row("halfcheetah", ppo) == {"learning_rate": (row.learning_rate / 2,
+                                                           row.learning_rate),
+                                         "max_grad_norm": (5, None)}
+  assert off_row_text("halfcheetah", ppo) == (
+      f"PPO learning_rate {row.learning_rate / 2} (default {row.learning_rate}), max_grad_norm 5 "
+      "(default None)")
+  assert off_row("halfcheetah", {}) == {} and off_row_text("halfcheetah", None) == ""
+  # each body is held to its own row: Ant's reward scaling is HalfCheetah's option, not Ant's
+  ant = {"reward_scaling": training.ppo_defaults("ant").reward_scaling}
+  assert off_row("ant", ant) == {}
+  assert off_row("halfcheetah", ant) == {"reward_scaling": (ant["reward_scaling"],
+                                                            row.reward_scaling)}
