@@ -162,7 +162,7 @@ def picked_seeds(run, picked: Sequence[int], key_seed: int) -> tuple:
 
 def run_label(spec, seeds: str | None = None) -> str:
   """"OBJECTIVE on ENV, N seeds" for a run's ``RunSpec``, with the env's edits where it has any
-  (an ablation) and, after it, its PPO settings off the env's row (``config.off_row_text``; e.g.
+  (an ablation) and, after it, its PPO settings off the env's row (``off_row_text``; e.g.
   "; PPO max_grad_norm 5 (default None)"), so that an option's figure does not read as the
   paper's row; ``seeds`` replaces "N seeds" (e.g. "seed 3")."""
   edits = (spec.env_params or {}).get("edits")
