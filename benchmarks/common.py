@@ -6,7 +6,6 @@ from __future__ import annotations
 
 import json
 import os
-import textwrap
 import time
 from typing import Callable, Sequence
 
@@ -170,11 +169,3 @@ def run_label(spec, seeds: str | None = None) -> str:
   options = ppo_config.off_row_text(spec.env, spec.ppo)
   return (f"{spec.objective} on {where}, {seeds or f'{len(spec.seeds)} seeds'}"
           + (f"; {options}" if options else ""))
-
-
-def fit_title(text: str, fig, fontsize: float = 10) -> str:
-  """``text`` with each of its lines wrapped to the width of the figure ``fig`` at ``fontsize``
-  points (a character taken as 0.6 em), so that a long run label (env edits, PPO options) stays on
-  the figure."""
-  chars = max(20, int(fig.get_size_inches()[0] * 72 / (0.6 * fontsize)))
-  return "\n".join(textwrap.fill(line, chars) for line in text.split("\n"))

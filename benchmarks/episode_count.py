@@ -52,7 +52,7 @@ sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import common  # noqa: E402
 
 from blx import envs, metrics  # noqa: E402
-from blx.experiments import runs  # noqa: E402
+from blx.experiments import plots, runs  # noqa: E402
 from blx.objectives.specs import DminSpec  # noqa: E402
 
 QUICK, FINAL = 4, 10  # episodes of the two protocols (blx.metrics.families)
@@ -168,7 +168,7 @@ def plot(directory: str, name: str = "episode_count.json") -> str:
   ax.grid(alpha=0.3)
   ax.legend(fontsize=8)
   spec = runs.read_spec(directory)
-  ax.set_title(common.fit_title(f"{common.run_label(spec)}: the same policies read\nfrom fewer "
+  ax.set_title(plots.fit_title(f"{common.run_label(spec)}: the same policies read\nfrom fewer "
                                 f"or more episodes (of {result['pool']} per seed)", fig),
                fontsize=10)
   fig.tight_layout()

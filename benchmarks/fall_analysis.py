@@ -88,7 +88,7 @@ import ablations  # noqa: E402
 import common  # noqa: E402
 
 from blx import envs, metrics  # noqa: E402
-from blx.experiments import runs  # noqa: E402
+from blx.experiments import plots, runs  # noqa: E402
 from blx.objectives.specs import DminSpec, MimaxSpec  # noqa: E402
 
 BINS = 1000
@@ -275,7 +275,7 @@ def plot(directory: str) -> str:
 
 def _save(fig, plt, directory: str, title: str) -> str:
   """Titles ``fig``, writes it to ``directory/falls.png`` and returns the path."""
-  fig.suptitle(common.fit_title(title, fig), fontsize=10)
+  fig.suptitle(plots.fit_title(title, fig), fontsize=10)
   fig.tight_layout()
   path = os.path.join(directory, "falls.png")
   fig.savefig(path, dpi=120)

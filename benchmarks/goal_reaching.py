@@ -55,6 +55,7 @@ sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import common  # noqa: E402
 
 from blx import metrics  # noqa: E402
+from blx.experiments import plots  # noqa: E402
 from blx.objectives.specs import MimaxSpec  # noqa: E402
 
 
@@ -178,7 +179,7 @@ def plot(result: dict, path: str) -> str:
   # a JSON written before session 41 has no goal_draw: its goals were the partitionable draw
   goals = {"braxlines": "the paper's goals", "partitionable": "goals of the partitionable draw"}[
       result.get("goal_draw", "partitionable")]
-  fig.suptitle(common.fit_title(
+  fig.suptitle(plots.fit_title(
       f"{result['label']}, {actions} actions, {goals}\nLGR {s['lgr'][0]:.2f}; with each goal's "
       f"best latent {s['best_lgr'][0]:.2f}; sitting at the mean state nearest each goal "
       f"{s['reach_lgr'][0]:.2f} (lower is better; means over seeds)", fig), fontsize=10)

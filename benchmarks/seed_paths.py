@@ -103,11 +103,11 @@ def draw(rows: list[tuple[str, list[int], list[float | None], np.ndarray]], path
         ax.set_ylabel(f"{label}\n\ny (m)", fontsize=8)
       if r == len(rows) - 1:
         ax.set_xlabel("x (m)", fontsize=7)
-  fig.suptitle(common.fit_title(title, fig), fontsize=10)
+  fig.suptitle(plots.fit_title(title, fig), fontsize=10)
   caption = (f"{body}'s xy over {EPISODES} episodes per skill, one colour per skill (the same "
              "latent in every panel); circles: the first positions, dots: the last. One scale "
              "for all panels.")
-  fig.text(0.5, 0.005, common.fit_title(caption, fig, 7), ha="center", va="bottom",
+  fig.text(0.5, 0.005, plots.fit_title(caption, fig, 7), ha="center", va="bottom",
            fontsize=7, color="0.3")
   fig.tight_layout(rect=(0, 0.025, 1, 1))
   fig.savefig(path, dpi=110)

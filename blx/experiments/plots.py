@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import os
 import re
+import textwrap
 from collections.abc import Sequence
 
 import jax
@@ -15,7 +16,7 @@ from blx import envs, metrics, training
 from blx.training.config import off_row_text
 
 __all__ = ["training_curves", "skills", "paths", "draw_paths", "root_body", "root_xy", "density",
-           "discriminator", "write_all"]
+           "discriminator", "write_all", "fit_title"]
 
 # The episode length follows the totals: an episode cut short by a fall sums fewer steps.
 CURVE_PATTERNS = (r"^eval/episode_reward$", r"^eval/episode_score$", r"^eval/episode_length$",
@@ -61,6 +62,14 @@ YLABELS = {
     "loss/policy": "PPO policy loss",
     "policy/entropy": "policy entropy (nats)",
 }
+
+
+def fit_title(text: str, fig, fontsize: float = 10) -> str:
+  """``text`` with each of its lines wrapped to the width of the figure ``fig`` at ``fontsize``
+  points (a character taken as 0.6 em), so that a long run label (env edits, PPO options) stays on
+  the figure."""
+  chars = max(20, int(fig.get_size_inches()[0] * 72 / (0.6 * fontsize)))
+  return "\n".join(textwrap.fill(line, chars) for line in text.split("\n"))
 
 
 def _steps_formatter():
@@ -156,7 +165,7 @@ def training_curves(history: list[dict], path: str, *, titles: dict[str, str] | 
     ax.axis("off")
   seeds = len(np.atleast_1d(history[0][keys[0]])) if history and keys else 1
   if title:
-    fig.suptitle(title, fontsize=10)
+    fig.suptitle(fit_title(title, fig), fontsize=10)
   caption = band_caption(seeds, keys)
   fig.text(0.5, 0.005, caption, ha="center", va="bottom", fontsize=7, color="0.3")
   # room below the panels for the caption's lines (about 0.12 inch each)
@@ -200,7 +209,8 @@ def skills(states: np.ndarray, path: str, *, labels: list[str], scale: float,
       ax.set_aspect("equal")
   if num <= 12:
     axes.flat[0].legend(fontsize=7, loc="best")
-  fig.suptitle(f"{title}: states per skill" if title else "states per skill", fontsize=10)
+  fig.suptitle(fit_title(f"{title}: states per skill" if title else "states per skill", fig),
+               fontsize=10)
   fig.tight_layout()
   fig.savefig(path, dpi=90)
   plt.close(fig)
@@ -243,7 +253,7 @@ def paths(xy: np.ndarray, path: str, *, body: str, title: str = "") -> None:
   ax.set_aspect("equal", adjustable="datalim")
   if num <= 12:
     ax.legend(fontsize=7, loc="best")
-  fig.suptitle(f"{title}: paths" if title else "paths", fontsize=10)
+  fig.suptitle(fit_title(f"{title}: paths" if title else "paths", fig), fontsize=10)
   fig.tight_layout()
   fig.savefig(path, dpi=90)
   plt.close(fig)
@@ -268,7 +278,7 @@ def density(policy_x: np.ndarray, target_x: np.ndarray, path: str, *, labels: li
     ax.hist(policy_x[:, 0], bins, color="tab:red", alpha=0.5, density=True, label="policy")
     ax.set_xlabel(labels[0])
   ax.legend(fontsize=8)
-  ax.set_title(title, fontsize=10)
+  ax.set_title(fit_title(title, fig), fontsize=10)
   fig.tight_layout()
   fig.savefig(path, dpi=90)
   plt.close(fig)
@@ -298,7 +308,7 @@ def discriminator(logit_fn, params, path: str, *, dim: int, labels: list[str], s
     ax.plot(ticks, d)
     ax.set_xlabel(labels[0])
     ax.set_ylabel("D(x)")
-  ax.set_title(title, fontsize=10)
+  ax.set_title(fit_title(title, fig), fontsize=10)
   fig.tight_layout()
   fig.savefig(path, dpi=90)
   plt.close(fig)

@@ -80,21 +80,6 @@ def test_run_labels_name_the_env_edits_of_an_ablation_run():
   assert common.run_label(plain, "seed 1") == "airl on humanoid, seed 1"
 
 
-def test_fit_title_wraps_each_line_to_the_figures_width_and_keeps_every_word():
-  import matplotlib
-  matplotlib.use("Agg")
-  import matplotlib.pyplot as plt
-  fig = plt.figure(figsize=(5, 3))  # 5 in at 10 pt: 60 characters a line
-  first = " ".join(f"word{i}" for i in range(40))
-  fitted = common.fit_title(first + "\nshort second line", fig)
-  lines = fitted.split("\n")
-  assert len(lines) > 3 and all(len(line) <= 60 for line in lines)
-  assert lines[-1] == "short second line"  # a line break of the text stays one
-  assert " ".join(lines[:-1]) == first
-  assert common.fit_title("fits", fig) == "fits"
-  plt.close(fig)
-
-
 def test_run_labels_name_the_ppo_settings_off_the_envs_row():
   from blx.experiments import runs
   spec = runs.RunSpec(env="halfcheetah", objective="gcrl", objective_options={},

@@ -194,3 +194,40 @@ def test_a_run_trained_off_its_envs_ppo_row_says_so_in_its_plots_titles(tmp_path
     plots.write_all(run, [{"env_steps": 1.0, "eval/mi": [0.1]}])
   assert titles == ["diayn on halfcheetah; PPO max_grad_norm 5 (default None): training curves",
                     "diayn on halfcheetah: training curves"]
+
+
+def test_fit_title_wraps_each_line_to_the_figures_width_and_keeps_every_word():
+  import matplotlib
+  matplotlib.use("Agg")
+  import matplotlib.pyplot as plt
+  fig = plt.figure(figsize=(5, 3))  # 5 in at 10 pt: 60 characters a line
+  first = " ".join(f"word{i}" for i in range(40))
+  fitted = plots.fit_title(first + "\nshort second line", fig)
+  lines = fitted.split("\n")
+  assert len(lines) > 3 and all(len(line) <= 60 for line in lines)
+  assert lines[-1] == "short second line"  # a line break of the text stays one
+  assert " ".join(lines[:-1]) == first
+  assert plots.fit_title("fits", fig) == "fits"
+  plt.close(fig)
+
+
+def test_a_run_directory_plots_long_title_is_wrapped_to_its_figure(tmp_path, monkeypatch):
+  import matplotlib
+  matplotlib.use("Agg")
+  import matplotlib.figure
+  import numpy as np
+  titles = []
+  save = matplotlib.figure.Figure.savefig
+
+  def spy(fig, *args, **kwargs):
+    titles.append(fig._suptitle.get_text())
+    return save(fig, *args, **kwargs)
+
+  monkeypatch.setattr(matplotlib.figure.Figure, "savefig", spy)
+  title = ("gcrl on halfcheetah; PPO learning_rate 0.00015 (default 0.0003), max_grad_norm 5 "
+           "(default None) (seed 0)")
+  xy = np.cumsum(np.ones((3, 2, 10, 2)), axis=2)
+  plots.paths(xy, str(tmp_path / "paths.png"), body="torso", title=title)
+  # the 4.8 in figure holds 57 characters a line at 10 pt: the title takes two lines, every word
+  assert titles[0].count("\n") >= 1 and max(map(len, titles[0].split("\n"))) <= 57
+  assert titles[0].replace("\n", " ") == f"{title}: paths"
