@@ -24,6 +24,10 @@
 #    packed: nothing in it resumes); calls side by side send their parts in turn
 #    ($STAGE_ROOT/blx-send.lock), each counting what the other left in $OUT; `carry.py park
 #    FILES_AT/NAME.tar.part_*` on the CPU machine keeps the last call's pack for the next session.
+#    A run the call left as it found it (a finished run, whose command only reports) is not
+#    packed again: its last pack, carried here or sent by an earlier call, holds it already, and
+#    sending it anew would take the room of another arm's parts; only parts an earlier call left
+#    staged are sent.
 #    Parts that do not fit the call's return (8 files, 64 MiB) stay in /tmp/stage-NAME, and
 #    `send` says so: a call of `python3 benchmarks/carry.py send /tmp/stage-NAME $OUT` alone
 #    brings them, before the next call packs the run anew.
@@ -101,7 +105,14 @@ if ! [ -e "$run_dir" ]; then
   fi
 fi
 
+# What RUN_DIR holds: every file's path and content, as one digest ("" where there is none).
+fingerprint() {
+  [ -d "$run_dir" ] || return 0
+  (cd "$run_dir" && find . -type f -print0 | LC_ALL=C sort -z | xargs -0 -r md5sum | md5sum)
+}
+
 # 3. Train until the deadline.
+found=$(fingerprint)
 echo "[device_call] $(date -u +%FT%TZ) running for at most ${seconds} s: $*" | tee -a "$log"
 timeout -s INT -k 30 "$seconds" "$@" >> "$log" 2>&1
 status=$?
@@ -113,6 +124,14 @@ if [ -d "$run_dir" ] && [ -z "$(find "$run_dir" -path '*/checkpoint/*' -type f -
 then
   echo "[device_call] $run_dir holds no checkpoint (its first chunk did not end within" \
     "${seconds} s): nothing to carry back; give a new run a longer stretch" | tee -a "$log"
+elif [ -d "$run_dir" ] && [ -n "$found" ] && [ "$(fingerprint)" = "$found" ]; then
+  echo "[device_call] $run_dir is as this call found it: not packed again (its last pack holds" \
+    "it)" | tee -a "$log"
+  if [ -n "$(ls "$stage"/"$name".tar.part_* 2>/dev/null)" ]; then
+    take "$send_lock" 60
+    python3 "$here/carry.py" send "$stage" "$out" 2>&1 | tee -a "$log"
+    rmdir "$send_lock" 2>/dev/null
+  fi
 elif [ -d "$run_dir" ]; then
   rm -rf "$stage"
   if python3 "$here/carry.py" pack "$run_dir" "$stage" --name "$name" 2>&1 | tee -a "$log"; then

@@ -7,6 +7,7 @@
                                       [--eval-protocol quick|final]
     python benchmarks/paper_tables.py --compare DIR [DIR ...]   # every eval.json against the paper
     python benchmarks/paper_tables.py --progress DIR [DIR ...] [--plot PNG]  # rows under way
+    python benchmarks/paper_tables.py --paired A B   # two final evaluations of a row, by seed
 
 ``--objective`` trains only that algorithm's point (one process per GPU:
 ``CUDA_VISIBLE_DEVICES=i python benchmarks/paper_tables.py --objective NAME &`` for each), and
@@ -16,6 +17,8 @@ settings over the env's row), ``--options`` (objective options over the row's, e
 ``'{"target_seed": 3}'``) and ``--steps`` are for ablations: a row trained with any of them is not
 the paper's protocol: ``--compare``, ``--progress`` and ``--plot`` name a run's PPO settings that
 are not the original's (``blx.training.config.off_row``, from its ``config.json``).
+``--paired A B`` compares two final evaluations of one row (``eval.json`` files or run directories)
+seed by seed, e.g. an option's arm against the paper's row trained on the same seed numbers.
 ``--first-seed N`` trains seeds N .. N + seeds - 1, so that one row's seeds can be split over
 processes or device calls; ``--compare DIR1 DIR2`` then merges the ``eval.json`` files found at the
 same path under each directory into one row (their seeds must not overlap). ``--eval-metrics`` also
@@ -456,6 +459,95 @@ def specs(seeds: int, edits: dict | None = None, config: dict | None = None,
   }
 
 
+def read_eval(path: str) -> tuple[str, dict]:
+  """The ``eval.json`` at ``path``, a file or a directory holding exactly one (searched below it):
+  ``(the file's path, its contents)``. ``ValueError`` naming what was found otherwise."""
+  if os.path.isdir(path):
+    found = sorted(glob.glob(os.path.join(path, "**", "*eval.json"), recursive=True))
+    if len(found) != 1:
+      raise ValueError(f"{path}: {len(found)} eval.json files under it "
+                       f"({', '.join(found) or 'none'}); give a run directory holding one, or "
+                       "the file")
+    path = found[0]
+  if not os.path.isfile(path):
+    raise ValueError(f"{path}: neither an eval.json file nor a directory holding one")
+  with open(path) as f:
+    return path, json.load(f)
+
+
+# Metrics ``paired`` reads beside the paper's, where both evaluations hold them: an MI's two parts.
+PAIRED_EXTRA = ("eval/conditional_entropy",)
+
+
+def paired(a: dict, b: dict, names: tuple[str, str] = ("A", "B")) -> list[str]:
+  """Markdown rows: the final evaluations ``a`` and ``b`` of one env and algorithm (say, an option's
+  arm against the paper's row) on the seeds they share, paired by seed number (shared initial
+  parameters and keys, not trajectories): per metric (the paper's for the row, then
+  ``PAIRED_EXTRA``) each mean ± std (numpy's), the mean difference, the paired t-test, Welch's, and
+  in how many seeds ``a`` is the better (larger, or smaller for an LGR, an energy distance or a
+  conditional entropy). ``ValueError`` where they are not one row or share fewer than two seeds."""
+  from scipy import stats
+  row_a = (a.get("env", "ant"), a["objective"])
+  row_b = (b.get("env", "ant"), b["objective"])
+  if row_a != row_b:
+    raise ValueError(f"{names[0]} is {row_a[1]} on {row_a[0]}, {names[1]} is {row_b[1]} on "
+                     f"{row_b[0]}: a paired test needs one env and algorithm")
+  goals = [(e.get("evaluated_on") or {}).get("lgr_goals") for e in (a, b)]
+  shared = sorted(set(a["seeds"]) & set(b["seeds"]))
+  if len(shared) < 2:
+    raise ValueError(f"{names[0]} has seeds {a['seeds']}, {names[1]} {b['seeds']}: a paired test "
+                     f"needs at least 2 shared seeds, got {shared}")
+  env, objective = row_a
+  metrics = [key.lstrip("-") for key in PAPER.get(env, {}).get(objective, {})]
+  metrics += [m for m in PAIRED_EXTRA if m not in metrics]
+  lines = [f"| metric | {names[0]} | {names[1]} | mean difference | paired t | p | Welch p "
+           f"| seeds where {names[0]} is better |",
+           "| --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: |"]
+  for metric in metrics:
+    if metric not in a["per_seed"] or metric not in b["per_seed"]:
+      continue
+    if metric == "eval/lgr" and goals[0] != goals[1]:
+      lines.append(f"| {metric} | (not compared: goals {goals[0]} against {goals[1]}) "
+                   "| | | | | | |")
+      continue
+    x = [a["per_seed"][metric][a["seeds"].index(s)] for s in shared]
+    y = [b["per_seed"][metric][b["seeds"].index(s)] for s in shared]
+    lower = metric in ("eval/lgr", "eval/energy_distance", "eval/conditional_entropy")
+    t, p = stats.ttest_rel(x, y)
+    welch_p = stats.ttest_ind(x, y, equal_var=False).pvalue
+    better = sum((u < v) if lower else (u > v) for u, v in zip(x, y))
+    (mx, sx), (my, sy) = mean_std(x), mean_std(y)
+    label = f"{metric} (lower is better)" if lower else metric
+    lines.append(f"| {label} | {mx:.3f} ± {sx:.3f} | {my:.3f} ± {sy:.3f} | {mx - my:+.3f} "
+                 f"| {t:+.2f} | {p:.4f} | {welch_p:.4f} | {better} of {len(shared)} |")
+  return lines
+
+
+def paired_report(path_a: str, path_b: str) -> str:
+  """``paired`` for two ``eval.json`` files or run directories, with each one's PPO settings that
+  are not the original's (``options_line``) below the table."""
+  (file_a, a), (file_b, b) = read_eval(path_a), read_eval(path_b)
+  names = (_short(file_a), _short(file_b))
+  if names[0] == names[1]:
+    names = ("A", "B")
+  lines = [f"{names[0]}: {file_a} against {names[1]}: {file_b}, paired by seed:", ""]
+  lines += paired(a, b, names=names)
+  notes = []
+  for path in (file_a, file_b):
+    prefix = path[:-len("eval.json")]
+    if os.path.exists(prefix + "config.json"):
+      config = read_config(prefix)
+      if isinstance(config, dict):
+        notes += options_line(prefix.rstrip("_/" + os.sep), config)
+  return "\n".join(lines + ([""] + notes if notes else []))
+
+
+def _short(path: str) -> str:
+  """A column name for an eval.json: its run directory's name, or the file's prefix."""
+  head, tail = os.path.split(path)
+  return tail[:-len("_eval.json")] if tail.endswith("_eval.json") else os.path.basename(head)
+
+
 def main():
   parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
   parser.add_argument("--env", choices=ENVS, default="ant")
@@ -484,6 +576,10 @@ def main():
   parser.add_argument("--compare", nargs="+", default=None, metavar="DIR",
                       help="only print the verdicts for the eval.json files under DIR; files at "
                            "the same path under several DIRs are one row's parts")
+  parser.add_argument("--paired", nargs=2, default=None, metavar=("A", "B"),
+                      help="only compare two final evaluations of one row (eval.json files or "
+                           "run directories holding one), paired by seed: e.g. an option's arm "
+                           "against the paper's row")
   parser.add_argument("--progress", nargs="+", default=None, metavar="DIR",
                       help="only print where the runs under DIR stand during training (their "
                            "metrics.csv, logged with --eval-metrics) against the paper")
@@ -491,8 +587,15 @@ def main():
                       help="with --progress: also draw each run's curves beside the paper's "
                            "final values into PNG")
   args = parser.parse_args()
-  if args.compare and args.progress:
-    parser.error("--compare and --progress: give one (the final verdicts, or the rows' progress)")
+  if sum(bool(x) for x in (args.compare, args.progress, args.paired)) > 1:
+    parser.error("--compare, --progress and --paired: give one (the final verdicts, the rows' "
+                 "progress, or two evaluations paired by seed)")
+  if args.paired:
+    try:
+      print(paired_report(*args.paired))
+    except ValueError as e:
+      parser.error(f"--paired: {e}")
+    return
   if args.compare:
     print(compare(*args.compare))
     return

@@ -467,7 +467,8 @@ def test_two_device_calls_side_by_side_send_their_packs_in_turn(tmp_path):
   env = {**os.environ, "OUT": str(out), "STAGE_ROOT": str(device),
          "SITE_DIR": str(device / "site"), "PYTHONPATH": str(_SCRIPT.parents[1]),
          "PATH": os.path.dirname(sys.executable) + os.pathsep + os.environ["PATH"]}
-  call = subprocess.Popen(["bash", str(_SCRIPT), "hc", "runs/hc", "60", "true"], cwd=device,
+  call = subprocess.Popen(["bash", str(_SCRIPT), "hc", "runs/hc", "60", "touch", "runs/hc/late"],
+                          cwd=device,
                           env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
   deadline = time.time() + 120
   while not list((device / "stage-hc").glob("hc.tar.part_*")) and time.time() < deadline:
@@ -479,6 +480,42 @@ def test_two_device_calls_side_by_side_send_their_packs_in_turn(tmp_path):
   stdout, stderr = call.communicate(timeout=120)
   assert call.returncode == 0, stderr + stdout
   assert list(out.glob("hc.tar.part_*")) and not lock.exists()  # sent, and the lock let go
+
+
+def test_a_device_call_that_leaves_its_run_as_it_found_it_sends_only_parts_left_staged(tmp_path):
+  # A finished run: its command only reports, rewriting a summary with the same text. Its last
+  # pack holds it, so the call packs nothing and sends nothing that would take another arm's room.
+  report = "open('runs/hc/summary.md', 'w').write('the same')"
+  device = tmp_path / "device"
+  tree = _tree(tmp_path)
+  pathlib.Path(tree, "summary.md").write_text("the same")
+  carry.pack(tree, str(device / ".carry" / "hc"), "hc", part_mb=PART_MB)
+  done = _device_call(device, tmp_path / "out", "hc", "runs/hc", 60, sys.executable, "-c", report,
+                      extra={"RESUME": "1"})
+  assert done.returncode == 0, done.stderr + done.stdout
+  log = (tmp_path / "out" / "hc.log").read_text()
+  assert "unpacked into runs/hc" in log and "as this call found it: not packed again" in log
+  assert not list((tmp_path / "out").glob("hc.tar.part_*")) and not (device / "stage-hc").exists()
+
+  # Parts an earlier call packed but could not send (no room in its return) are still staged:
+  # the next call that leaves the run as it was sends them.
+  carry.pack(str(device / "runs" / "hc"), str(device / "stage-hc"), "hc", part_mb=PART_MB)
+  done = _device_call(device, tmp_path / "out2", "hc", "runs/hc", 60, sys.executable, "-c",
+                      report)
+  assert done.returncode == 0, done.stderr + done.stdout
+  back = sorted(str(p) for p in (tmp_path / "out2").glob("hc.tar.part_*"))
+  assert back and not list((device / "stage-hc").glob("hc.tar.part_*"))
+  carry.unpack(back, str(tmp_path / "home"))
+  assert (tmp_path / "home" / "summary.md").read_text() == "the same"
+  assert (tmp_path / "home" / "mimax" / "objective=diayn" / "metrics.csv").exists()
+
+  # A command that changes the run, if only by one file, is packed and sent anew.
+  done = _device_call(device, tmp_path / "out3", "hc", "runs/hc", 60, sys.executable, "-c",
+                      "open('runs/hc/summary.md', 'w').write('changed')")
+  back = sorted(str(p) for p in (tmp_path / "out3").glob("hc.tar.part_*"))
+  assert done.returncode == 0 and back
+  carry.unpack(back, str(tmp_path / "home3"))
+  assert (tmp_path / "home3" / "summary.md").read_text() == "changed"
 
 
 def test_a_device_call_told_to_resume_never_starts_a_run_anew(tmp_path):

@@ -95,6 +95,66 @@ def test_welch_matches_scipy_with_both_stds_as_sample_stds():
   assert t == pytest.approx(ref.statistic) and p == pytest.approx(ref.pvalue)
 
 
+def _evaluation(objective, seeds, goals="braxlines", env="halfcheetah", **per_seed):
+  return {"objective": objective, "env": env, "seeds": list(seeds),
+          "evaluated_on": {"lgr_goals": goals}, "per_seed": per_seed}
+
+
+def test_paired_pairs_two_evaluations_by_seed_number_whatever_their_order():
+  # Arm A is B plus 0.1 at every seed but seed 2 (0.1 less), listed in another seed order; seed 9
+  # is A's alone and left out.
+  mi_b = [1.0, 1.4, 0.8, 1.2]
+  mi_a = {3: 1.3, 0: 1.1, 2: 0.7, 1: 1.5, 9: 5.0}
+  a = _evaluation("gcrl", mi_a, **{"eval/mi": list(mi_a.values()),
+                                    "eval/lgr": [0.2, 0.3, 0.4, 0.1, 0.0]})
+  b = _evaluation("gcrl", [0, 1, 2, 3], **{"eval/mi": mi_b, "eval/lgr": [0.5, 0.1, 0.6, 0.3]})
+  header, _, mi, lgr = paper_tables.paired(a, b, names=("clip", "row"))
+  assert "| clip | row |" in header and "seeds where clip is better" in header
+  x, y = [1.1, 1.5, 0.7, 1.3], mi_b  # seeds 0-3, seed 9 left out
+  ref = stats.ttest_rel(x, y)
+  assert mi.startswith("| eval/mi | 1.150 ± 0.296 | 1.100 ± 0.224 | +0.050 |")
+  assert f"| {ref.statistic:+.2f} | {ref.pvalue:.4f} |" in mi and mi.endswith("| 3 of 4 |")
+  # The LGR is better lower. A's by seed 0-3: 0.3, 0.1, 0.4, 0.2 against B's 0.5, 0.1, 0.6, 0.3:
+  # lower at seeds 0, 2 and 3, level at seed 1.
+  assert lgr.startswith("| eval/lgr (lower is better) | 0.250 ± 0.112 | 0.375 ± 0.192 |")
+  assert lgr.endswith("| 3 of 4 |")
+
+
+def test_paired_refuses_two_rows_too_few_shared_seeds_and_lgrs_on_other_goals():
+  a = _evaluation("gcrl", [0, 1], **{"eval/mi": [1.0, 1.1], "eval/lgr": [0.2, 0.3]})
+  with pytest.raises(ValueError, match="A is gcrl on halfcheetah, B is diayn on halfcheetah"):
+    paper_tables.paired(a, dict(a, objective="diayn"))
+  with pytest.raises(ValueError, match="at least 2 shared seeds, got \\[1\\]"):
+    paper_tables.paired(a, dict(a, seeds=[1, 2]))
+  old_goals = dict(a, evaluated_on={"lgr_goals": "partitionable"})
+  rows = paper_tables.paired(a, old_goals)
+  assert any(r.startswith("| eval/lgr | (not compared: goals braxlines against partitionable)")
+             for r in rows)
+  assert any(r.startswith("| eval/mi | 1.050") for r in rows)
+
+
+def test_paired_reads_run_directories_and_names_an_arms_options(tmp_path, capsys, monkeypatch):
+  row, arm = tmp_path / "row" / "gcrl" / "run", tmp_path / "clip" / "gcrl" / "run"
+  for path, mi, ppo in ((row, [1.0, 1.2], {}), (arm, [1.5, 1.6], {"max_grad_norm": 5})):
+    os.makedirs(path)
+    (path / "eval.json").write_text(json.dumps(
+        _evaluation("gcrl", [0, 1], **{"eval/mi": mi})))
+    (path / "config.json").write_text(json.dumps(
+        {"env": "halfcheetah", "objective": "gcrl", "ppo": ppo}))
+  text = paper_tables.paired_report(str(tmp_path / "clip"), str(tmp_path / "row"))
+  assert text.splitlines()[0].startswith("A: ")  # both runs are named "run": A and B
+  assert "| eval/mi | 1.550 ± 0.050 | 1.100 ± 0.100 | +0.450 |" in text
+  assert "max_grad_norm 5 (the original's: None)" in text
+  with pytest.raises(ValueError, match="2 eval.json files under it"):
+    paper_tables.read_eval(str(tmp_path))
+  with pytest.raises(ValueError, match="neither an eval.json file nor a directory"):
+    paper_tables.read_eval(str(tmp_path / "missing"))
+  monkeypatch.setattr("sys.argv", ["paper_tables.py", "--paired", str(tmp_path), str(row)])
+  with pytest.raises(SystemExit):
+    paper_tables.main()
+  assert "--paired: " in capsys.readouterr().err
+
+
 def test_a_row_split_over_programs_trains_disjoint_seeds_and_merges_into_one_row(tmp_path):
   first = paper_tables.specs(4, env="ant")["dmin"]
   rest = paper_tables.specs(6, env="ant", first_seed=4)["dmin"]
