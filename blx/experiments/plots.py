@@ -22,7 +22,7 @@ __all__ = ["training_curves", "skills", "paths", "draw_paths", "root_body", "roo
 CURVE_PATTERNS = (r"^eval/episode_reward$", r"^eval/episode_score$", r"^eval/episode_length$",
                   r"^eval/mi$", r"^eval/entropy$", r"^eval/lgr$", r"^eval/energy_distance$",
                   r"^eval/mode_share/\d+$", r"^loss/disc$", r"^disc/accuracy$", r"^loss/policy$",
-                  r"^policy/entropy$")
+                  r"^policy/entropy$", r"^grad_norm$", r"^grad_clipped$")
 PER_AGENT = ("eval/episode_reward", "eval/episode_score")  # split by agent in multi-agent runs
 
 
@@ -61,6 +61,8 @@ YLABELS = {
     "disc/accuracy": "discriminator accuracy",
     "loss/policy": "PPO policy loss",
     "policy/entropy": "policy entropy (nats)",
+    "grad_norm": "gradient norm (before any clip)",
+    "grad_clipped": "share of SGD steps clipped",
 }
 
 
@@ -85,7 +87,7 @@ def _steps_formatter():
 
 # Curves of a count, an episode's length, are drawn from 0: a run whose episodes all last to the
 # end is then a flat line at the episode length, not one short episode magnified to fill the panel.
-FROM_ZERO = ("eval/episode_length", "eval/mode_balance")
+FROM_ZERO = ("eval/episode_length", "eval/mode_balance", "grad_clipped")
 
 
 def value_axis(ax, key: str) -> None:
@@ -117,11 +119,19 @@ def band_caption(num_seeds: int, keys: Sequence[str] = ()) -> str:
   sampled = [k for k in keys if k.startswith("eval/") and k not in training.RETURN_KEYS]
   if not sampled:
     return (f"{spread}. eval/*: deterministic evaluation episodes after each chunk; loss/*, "
-            "disc/*, policy/*: means over the chunk's training iterations.")
+            "disc/*, policy/*, grad_*: means over the chunk's training iterations.")
   return (f"{spread}. eval/episode_reward, _score, _length: the trainer's deterministic episodes "
           "after each chunk; the other eval/*: the objective's evaluator after each chunk,\n"
-          "actions sampled (as Braxlines' evaluation); loss/*, disc/*, policy/*: means over the "
-          "chunk's training iterations.")
+          "actions sampled (as Braxlines' evaluation); loss/*, disc/*, policy/*, grad_*: means "
+          "over the chunk's training iterations.")
+
+
+def _curve(history: list[dict], key: str) -> np.ndarray:
+  """``key``'s values per evaluation and seed, ``[E, seeds]``; NaN (a gap in the curve) where an
+  evaluation did not log it."""
+  width = next(np.atleast_1d(row[key]).shape[0] for row in history if key in row)
+  return np.array([np.atleast_1d(row[key]) if key in row else np.full(width, np.nan)
+                   for row in history], np.float64)
 
 
 def training_curves(history: list[dict], path: str, *, titles: dict[str, str] | None = None,
@@ -132,18 +142,20 @@ def training_curves(history: list[dict], path: str, *, titles: dict[str, str] | 
   which the LGR was scored on the paper's goals and before which on blx's old ones (a run resumed
   across session 41, ``runs.lgr_goals_switch``), marked in the LGR panels."""
   plt = _pyplot()
-  keys = [k for p in CURVE_PATTERNS for k in (history[0] if history else {}) if re.match(p, k)]
-  keys = list(dict.fromkeys(keys))
+  # Every row's keys: a statistic first logged when a run resumed (e.g. ``grad_clipped``) is drawn
+  # from there on.
+  logged = list(dict.fromkeys(k for row in history for k in row))
+  keys = list(dict.fromkeys(k for p in CURVE_PATTERNS for k in logged if re.match(p, k)))
   cols = min(3, max(1, len(keys)))
   rows = max(1, -(-len(keys) // cols))
   fig, axes = plt.subplots(rows, cols, figsize=(4.2 * cols, 3.0 * rows), squeeze=False)
   steps = np.array([row["env_steps"] for row in history])
   for ax, key in zip(axes.flat, keys):
     # A multi-agent run's totals are drawn per agent (eval/episode_reward/<agent>), one colour each.
-    agents = [k for k in history[0]
+    agents = [k for k in logged
               if key in PER_AGENT and re.match(rf"^{re.escape(key)}/[^/]+$", k)]
     for i, line in enumerate(agents or [key]):
-      values = np.array([np.atleast_1d(row[line]) for row in history], np.float64)  # [E, seeds]
+      values = _curve(history, line)  # [E, seeds]
       label = line.rsplit("/", 1)[-1] if agents else None
       ax.plot(steps, values.mean(1), color=f"C{i}", marker="o", ms=2.5, label=label)
       if values.shape[1] > 1:
@@ -154,16 +166,22 @@ def training_curves(history: list[dict], path: str, *, titles: dict[str, str] | 
     if marked:
       # the two sides scored other goals: the curve's step there is the goals', not the policy's
       ax.axvline(lgr_goals_from, color="0.3", linestyle="--", linewidth=0.8)
+    # A statistic first logged at a resume: the panel spans the whole run, and its title says so.
+    first = steps[~np.isnan(_curve(history, key)).all(1)].min()
+    late = f"\n(logged from {_steps_formatter()(first, None)} on)" if first > steps.min() else ""
     ax.set_title((titles or {}).get(key, key) + (" per agent" if agents else "")
-                 + ("\n(left of the dashed line: blx's old goals)" if marked else ""), fontsize=9)
+                 + ("\n(left of the dashed line: blx's old goals)" if marked else "") + late,
+                 fontsize=9)
     ax.set_xlabel("env steps", fontsize=8)
+    margin = 0.05 * (steps.max() - steps.min()) or 0.5
+    ax.set_xlim(steps.min() - margin, steps.max() + margin)
     ax.xaxis.set_major_formatter(_steps_formatter())
     ax.set_ylabel(curve_ylabel(key), fontsize=8)
     value_axis(ax, key)
     ax.tick_params(labelsize=7)
   for ax in list(axes.flat)[len(keys):]:
     ax.axis("off")
-  seeds = len(np.atleast_1d(history[0][keys[0]])) if history and keys else 1
+  seeds = _curve(history, keys[0]).shape[1] if history and keys else 1
   if title:
     fig.suptitle(fit_title(title, fig), fontsize=10)
   caption = band_caption(seeds, keys)
@@ -353,7 +371,8 @@ def write_all(run, history: list[dict], *, seed_index: int = 0, key_seed: int = 
   trained = f"{run.objective.name} on {run.spec.env}" + (f"; {options}" if options else "")
   if history:
     path = os.path.join(out_dir, "training_curves.png")
-    training_curves(history, path, titles=curve_titles(history[0], run.objective),
+    logged = list(dict.fromkeys(k for row in history for k in row))
+    training_curves(history, path, titles=curve_titles(logged, run.objective),
                     title=f"{trained}: training curves", lgr_goals_from=lgr_goals_from)
     written.append(path)
   if run.params is None:

@@ -1,5 +1,6 @@
 """Plot labels a reader needs to read the training curves."""
 
+import numpy as np
 import pytest
 
 from blx import objectives
@@ -41,6 +42,27 @@ def test_curve_panels_say_what_they_measure_and_what_the_band_is(tmp_path):
   assert plots.training_curves(history, str(path), title="diayn on point") == [
       "eval/episode_score", "eval/episode_length", "eval/mi", "loss/policy"]
   assert path.stat().st_size > 0
+
+
+def test_ppos_gradient_panels_are_drawn_and_a_statistic_first_logged_at_a_resume_too(tmp_path,
+                                                                                     monkeypatch):
+  # grad_norm is logged by every run; grad_clipped only with max_grad_norm set, so a run resumed
+  # with a newer blx logs it from its resume on: its panel starts there, a gap before it.
+  history = [{"env_steps": 1e6 * (i + 1), "eval/mi": [0.1 * i, 0.2 * i], "grad_norm": [3.0, 4.0],
+              **({"grad_clipped": [0.1, 0.3]} if i >= 2 else {})} for i in range(4)]
+  panels = []  # each drawn panel's title and x range, as saved
+  monkeypatch.setattr("matplotlib.figure.Figure.savefig", lambda fig, *a, **k: panels.extend(
+      (ax.get_title(), ax.get_xlim()) for ax in fig.axes if ax.axison))
+  keys = plots.training_curves(history, str(tmp_path / "curves.png"))
+  assert keys == ["eval/mi", "grad_norm", "grad_clipped"]
+  (mi, mi_span), (_, norm_span), (clipped, clipped_span) = panels
+  assert mi == "eval/mi" and clipped == "grad_clipped\n(logged from 3M on)"
+  assert clipped_span == mi_span == norm_span  # every panel spans the whole run
+  np.testing.assert_array_equal(plots._curve(history, "grad_clipped"),
+                                [[np.nan, np.nan], [np.nan, np.nan], [0.1, 0.3], [0.1, 0.3]])
+  assert plots.curve_ylabel("grad_clipped") == "share of SGD steps clipped"
+  assert plots.curve_ylabel("grad_norm") == "gradient norm (before any clip)"
+  assert "grad_*: means over the chunk's training iterations" in plots.band_caption(2, keys)
 
 
 def test_a_run_resumed_across_the_lgr_goals_change_has_it_marked_in_its_lgr_panel(tmp_path,
