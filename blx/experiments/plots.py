@@ -167,7 +167,7 @@ def training_curves(history: list[dict], path: str, *, titles: dict[str, str] | 
       # the two sides scored other goals: the curve's step there is the goals', not the policy's
       ax.axvline(lgr_goals_from, color="0.3", linestyle="--", linewidth=0.8)
     # A statistic first logged at a resume: the panel spans the whole run, and its title says so.
-    first = steps[~np.isnan(_curve(history, key)).all(1)].min()
+    first = min(row["env_steps"] for row in history if key in row)
     late = f"\n(logged from {_steps_formatter()(first, None)} on)" if first > steps.min() else ""
     ax.set_title((titles or {}).get(key, key) + (" per agent" if agents else "")
                  + ("\n(left of the dashed line: blx's old goals)" if marked else "") + late,
