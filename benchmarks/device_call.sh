@@ -105,6 +105,14 @@ if ! [ -e "$run_dir" ]; then
   fi
 fi
 
+# Sends the staged parts into $OUT, one call at a time: each fits its parts beside the files
+# already there.
+send_stage() {
+  take "$send_lock" 60
+  python3 "$here/carry.py" send "$stage" "$out" 2>&1 | tee -a "$log"
+  rmdir "$send_lock" 2>/dev/null
+}
+
 # What RUN_DIR holds: every file's path and content, as one digest ("" where there is none).
 fingerprint() {
   [ -d "$run_dir" ] || return 0
@@ -128,17 +136,12 @@ elif [ -d "$run_dir" ] && [ -n "$found" ] && [ "$(fingerprint)" = "$found" ]; th
   echo "[device_call] $run_dir is as this call found it: not packed again (its last pack holds" \
     "it)" | tee -a "$log"
   if [ -n "$(ls "$stage"/"$name".tar.part_* 2>/dev/null)" ]; then
-    take "$send_lock" 60
-    python3 "$here/carry.py" send "$stage" "$out" 2>&1 | tee -a "$log"
-    rmdir "$send_lock" 2>/dev/null
+    send_stage
   fi
 elif [ -d "$run_dir" ]; then
   rm -rf "$stage"
   if python3 "$here/carry.py" pack "$run_dir" "$stage" --name "$name" 2>&1 | tee -a "$log"; then
-    # One send at a time: each fits its parts beside the files already in $OUT.
-    take "$send_lock" 60
-    python3 "$here/carry.py" send "$stage" "$out" 2>&1 | tee -a "$log"
-    rmdir "$send_lock" 2>/dev/null
+    send_stage
   fi
 fi
 exit $status

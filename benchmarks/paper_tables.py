@@ -192,6 +192,17 @@ def options_line(name: str, config: dict) -> list[str]:
            "the paper's row."] if changed else [])
 
 
+def eval_options(eval_path: str) -> list[str]:
+  """``options_line`` for the run of the ``eval.json`` at ``eval_path``, from the ``config.json``
+  beside it (none where there is none), or a line saying its config could not be read."""
+  prefix = eval_path[:-len("eval.json")]
+  if not os.path.exists(prefix + "config.json"):
+    return []
+  config = read_config(prefix)
+  return (options_line(prefix.rstrip("_/" + os.sep), config) if isinstance(config, dict)
+          else [f"{config}: its settings were not checked against the original's"])
+
+
 def compare(*directories: str) -> str:
   """The verdict table for every ``eval.json`` under the directories; files at the same path under
   several directories are parts of one row (``merge``). Below it, each row's PPO settings that are
@@ -204,13 +215,8 @@ def compare(*directories: str) -> str:
       rel = os.path.relpath(path, directory)
       with open(path) as f:
         parts.setdefault(rel, []).append(json.load(f))
-      prefix = path[:-len("eval.json")]
-      if os.path.exists(prefix + "config.json"):
-        config = read_config(prefix)
-        lines = (options_line(prefix.rstrip("_/" + os.sep), config) if isinstance(config, dict)
-                 else [f"{config}: its settings were not checked against the original's"])
-        seen = notes.setdefault(rel, [])
-        seen += [line for line in lines if line not in seen]
+      seen = notes.setdefault(rel, [])
+      seen += [line for line in eval_options(path) if line not in seen]
   for rel in sorted(parts):
     rows += verdicts(merge(parts[rel]))
   extra = [line for rel in sorted(notes) for line in notes[rel]]
@@ -475,6 +481,16 @@ def read_eval(path: str) -> tuple[str, dict]:
     return path, json.load(f)
 
 
+# Metrics where lower is better (a rise is worse), matched by name so that a metric's variants
+# (e.g. Braxlines' window) count too; for every other metric higher is better.
+LOWER_IS_BETTER = ("lgr", "energy_distance", "conditional_entropy")
+
+
+def lower_is_better(metric: str) -> bool:
+  """Whether a lower ``metric`` is better (``LOWER_IS_BETTER``)."""
+  return any(word in metric for word in LOWER_IS_BETTER)
+
+
 # Metrics ``paired`` reads beside the paper's, where both evaluations hold them: an MI's two parts.
 PAIRED_EXTRA = ("eval/conditional_entropy",)
 
@@ -512,7 +528,7 @@ def paired(a: dict, b: dict, names: tuple[str, str] = ("A", "B")) -> list[str]:
       continue
     x = [a["per_seed"][metric][a["seeds"].index(s)] for s in shared]
     y = [b["per_seed"][metric][b["seeds"].index(s)] for s in shared]
-    lower = metric in ("eval/lgr", "eval/energy_distance", "eval/conditional_entropy")
+    lower = lower_is_better(metric)
     t, p = stats.ttest_rel(x, y)
     welch_p = stats.ttest_ind(x, y, equal_var=False).pvalue
     better = sum((u < v) if lower else (u > v) for u, v in zip(x, y))
@@ -532,13 +548,7 @@ def paired_report(path_a: str, path_b: str) -> str:
     names = ("A", "B")
   lines = [f"{names[0]}: {file_a} against {names[1]}: {file_b}, paired by seed:", ""]
   lines += paired(a, b, names=names)
-  notes = []
-  for path in (file_a, file_b):
-    prefix = path[:-len("eval.json")]
-    if os.path.exists(prefix + "config.json"):
-      config = read_config(prefix)
-      if isinstance(config, dict):
-        notes += options_line(prefix.rstrip("_/" + os.sep), config)
+  notes = eval_options(file_a) + eval_options(file_b)
   return "\n".join(lines + ([""] + notes if notes else []))
 
 

@@ -10,14 +10,14 @@ METRICS_CSV is a run's ``metrics.csv`` (trained with ``--eval-metrics``) or a co
 (the run's provenance says so, as ``paper_tables.py`` reads it) is left out, so a change of goals
 never reads as a break.
 
-- **The break** of a seed is the step between two consecutive evaluations with the largest change
-  in the worse direction (``--worse``; by default up for LGRs and energy distances, down for
-  everything else). The seed **came back** where its last evaluation is nearer the value before
-  the break than the value after it. Beside it: the chunk's ``grad_norm``, ``loss/value``,
-  ``loss/policy`` and ``train/reward`` before and at the break, where the CSV has them, and for
-  each the share of the breaks at which it rose against the share of all other steps at which it
-  rose (its base rate), with a binomial test: a statistic that rises at every break and seldom
-  elsewhere ties the breaks to PPO's updates.
+- **The break** of a seed is the step between two consecutive evaluations with the largest change in
+  the worse direction (``--worse``; by default up for LGRs, energy distances and conditional
+  entropies, down for everything else). The seed **came back** where its last evaluation is nearer
+  the value before the break than the value after it. Beside it: the chunk's ``grad_norm``,
+  ``loss/value``, ``loss/policy`` and ``train/reward`` before and at the break, where the CSV has
+  them, and for each the share of the breaks at which it rose against the share of all other steps
+  at which it rose (its base rate), with a binomial test: a statistic that rises at every break and
+  seldom elsewhere ties the breaks to PPO's updates.
 - **The windows**: each seed's mean over the evaluations between A and B million env steps
   (``--window``, inclusive) against its mean over its last ``--last`` evaluations (default 10);
   a paired t-test over seeds (scipy's ``ttest_rel``) and the count of seeds that got worse.
@@ -52,15 +52,14 @@ import paper_tables  # noqa: E402
 
 # PPO's statistics read beside a break, as metrics.csv names them.
 DIAGNOSTICS = ("grad_norm", "loss/value", "loss/policy", "train/reward")
-# Metrics where a rise is the worse direction; for any other a fall is.
-RISING_IS_WORSE = ("lgr", "energy_distance")
 
 
 def worse_direction(metric: str, worse: str | None = None) -> int:
   """+1 where a rise of ``metric`` is worse, -1 where a fall is: ``worse`` ("up" or "down") when
-  given, else by the metric's name (LGRs and energy distances rise when worse)."""
+  given, else by the metric's name (``paper_tables.lower_is_better``: LGRs, energy distances and
+  conditional entropies rise when worse)."""
   if worse is None:
-    return 1 if any(word in metric for word in RISING_IS_WORSE) else -1
+    return 1 if paper_tables.lower_is_better(metric) else -1
   if worse not in ("up", "down"):
     raise ValueError(f"worse must be 'up' or 'down', got {worse!r}")
   return 1 if worse == "up" else -1
@@ -366,7 +365,8 @@ def main(argv=None):
   parser.add_argument("metrics_csv")
   parser.add_argument("--metric", required=True, help="a metrics.csv column, e.g. eval/lgr")
   parser.add_argument("--worse", choices=("up", "down"),
-                      help="the worse direction (default: up for LGRs and energy distances)")
+                      help="the worse direction (default: up for LGRs, energy distances and "
+                           "conditional entropies)")
   parser.add_argument("--window", help="A:B, millions of env steps: the early window")
   parser.add_argument("--last", type=int,
                       help="evaluations at the end (default 10, or each seed's count if fewer)")

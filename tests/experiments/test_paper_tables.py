@@ -145,6 +145,9 @@ def test_paired_reads_run_directories_and_names_an_arms_options(tmp_path, capsys
   assert text.splitlines()[0].startswith("A: ")  # both runs are named "run": A and B
   assert "| eval/mi | 1.550 ± 0.050 | 1.100 ± 0.100 | +0.450 |" in text
   assert "max_grad_norm 5 (the original's: None)" in text
+  (row / "config.json").write_text("{")  # a config that cannot be read is said, not skipped
+  text = paper_tables.paired_report(str(tmp_path / "clip"), str(tmp_path / "row"))
+  assert "its settings were not checked against the original's" in text
   with pytest.raises(ValueError, match="2 eval.json files under it"):
     paper_tables.read_eval(str(tmp_path))
   with pytest.raises(ValueError, match="neither an eval.json file nor a directory"):

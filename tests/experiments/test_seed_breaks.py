@@ -70,6 +70,7 @@ def test_the_worse_direction_follows_the_metric_or_the_flag(mi_csv):
   assert seed_breaks.worse_direction("eval/lgr") == 1
   assert seed_breaks.worse_direction("eval/energy_distance_braxlines") == 1
   assert seed_breaks.worse_direction("eval/entropy") == -1
+  assert seed_breaks.worse_direction("eval/conditional_entropy") == 1  # H(s|z): lower is better
   assert seed_breaks.worse_direction("eval/mi", "up") == 1
   _, rows = seed_breaks.read_rows(mi_csv)
   by_seed = seed_breaks.series(rows, "eval/mi")
