@@ -510,19 +510,41 @@ def run_main(main_fn=None) -> None:
   or stop the thread that dispatched it inside XLA, which aborts the process on a GPU
   ("FATAL: exception not rethrown", status 134). For ``if __name__ == "__main__"`` and the console
   script; tests call ``main`` itself. A Ctrl-C that ``main_fn`` does not catch itself (one
-  outside training, e.g. in ``blx eval``) is the same exit, with one line instead of a traceback."""
+  outside training, e.g. in ``blx eval``) is the same exit, with one line instead of a traceback.
+
+  Any other end while a chunk is still in flight (training's dispatch thread alive, as after a
+  non-finite loss: ``training.NonFiniteError``) ends the same way, with its own status; a
+  ``NonFiniteError`` that ``main_fn`` lets through is one line of error and status 2, as ``blx``
+  gives it."""
+  program = os.path.basename(sys.argv[0]) or "blx"
   try:
     status = (main_fn or main)()
   except SystemExit as e:
     status = e.code
   except KeyboardInterrupt:
-    print(f"{os.path.basename(sys.argv[0]) or 'blx'}: interrupted", file=sys.stderr)
+    print(f"{program}: interrupted", file=sys.stderr)
     status = INTERRUPTED_STATUS
-  if status == INTERRUPTED_STATUS:
+  except Exception as e:  # noqa: BLE001  (only training's NonFiniteError is caught)
+    loop = sys.modules.get("blx.training.loop")  # not loaded: no training, so not its error
+    if loop is None or not isinstance(e, loop.NonFiniteError):
+      raise
+    print(f"{program}: error: {e}", file=sys.stderr)
+    status = 2
+  if status == INTERRUPTED_STATUS or (isinstance(status, int) and _chunk_in_flight()):
     sys.stdout.flush()
     sys.stderr.flush()
-    os._exit(INTERRUPTED_STATUS)
+    os._exit(status)
   sys.exit(status)
+
+
+def _chunk_in_flight() -> bool:
+  """Whether training's dispatch thread (``training.loop.DISPATCH_THREAD``) is still running a
+  chunk on the device."""
+  import threading
+
+  loop = sys.modules.get("blx.training.loop")  # not loaded: nothing was trained
+  return loop is not None and any(t.name == loop.DISPATCH_THREAD and t.is_alive()
+                                  for t in threading.enumerate())
 
 
 if __name__ == "__main__":

@@ -25,7 +25,7 @@ __all__ = ["TrainResult", "train", "NonFiniteError", "evaluate_together", "compi
 
 
 class NonFiniteError(FloatingPointError):
-  """Training produced a non-finite loss, parameter or observation."""
+  """Training produced a non-finite observation, reward, loss, gradient or parameter."""
 
 
 class TrainResult(NamedTuple):
@@ -110,8 +110,10 @@ def train(env: Any, objective: Objective, config: PPOConfig, *, seeds: Sequence[
       or ``0``), else by the host: on where it has at least 8 cores.
 
   Raises:
-    NonFiniteError: a loss, a parameter or an observation became non-finite; the message names the
-      iteration and the quantity, and the checkpoint of the last good chunk is kept.
+    NonFiniteError: an observation, a reward, a loss, a gradient or a parameter became
+      non-finite; the message names the iteration, the seed and the quantities (for a loss, its
+      terms and PPO's largest log-ratio at the first bad SGD step), and the checkpoint of the
+      last good chunk is kept.
     KeyboardInterrupt: passed on at once, with the checkpoint of the last chunk reported; the
       chunk in flight is dropped, and does not hold the process's exit.
   """
@@ -193,8 +195,9 @@ def train(env: Any, objective: Objective, config: PPOConfig, *, seeds: Sequence[
              "total_steps": float(total), "eta_seconds": (total - env_steps) / max(rate, 1e-9),
              "compile_seconds": compile_seconds}
       for k, v in metrics.items():
-        if not k.startswith("nonfinite/"):
-          row[k] = np.asarray(v).mean(axis=1).tolist()  # mean over the chunk's iterations
+        if not k.startswith("nonfinite/"):  # over the chunk's iterations: a "_max" its largest
+          reduce = np.max if k.endswith("_max") else np.mean
+          row[k] = reduce(np.asarray(v), axis=1).tolist()
       row.update({k: np.asarray(v).tolist() for k, v in evals.items()})
       history.append(row)
       if checkpoint_dir:
@@ -215,6 +218,9 @@ def train(env: Any, objective: Objective, config: PPOConfig, *, seeds: Sequence[
   return TrainResult(params=policy_params(state), metrics=history, policy=trainer.policy, state=state)
 
 
+DISPATCH_THREAD = "blx-dispatch"  # the thread's name, by which ``cli.run_main`` finds it
+
+
 def _in_background(fn: Callable, *args) -> concurrent.futures.Future:
   """``fn(*args)`` on a daemon thread of its own; its result or exception in the future returned.
 
@@ -230,7 +236,7 @@ def _in_background(fn: Callable, *args) -> concurrent.futures.Future:
     except BaseException as e:  # noqa: BLE001  (handed to the thread that waits on the future)
       future.set_exception(e)
 
-  threading.Thread(target=work, name="blx-dispatch", daemon=True).start()
+  threading.Thread(target=work, name=DISPATCH_THREAD, daemon=True).start()
   return future
 
 
@@ -301,18 +307,39 @@ def _jsonable(x):
 
 def _check_finite(metrics: dict, first_iteration: int, seeds, checkpoint_dir) -> None:
   """Raises at the first iteration (and seed) where anything went non-finite, naming every
-  quantity that did there: a non-finite observation points at the physics, a non-finite loss with
-  finite observations at the learning."""
-  quantities = ("observation", "loss", "params")
+  quantity that did there: a non-finite observation points at the physics, a non-finite reward
+  with finite observations at the objective's reward, a non-finite loss or gradient at the
+  learning. For the loss, the terms that were non-finite at the update's first bad SGD step are
+  named, with PPO's largest log-ratio there (``ppo._first_nonfinite_step``): one above about 88.7
+  overflowed the ratio."""
+  quantities = [q for q in ("observation", "reward", "loss", "grads", "params")
+                if f"nonfinite/{q}" in metrics]
   flags = {q: np.asarray(metrics[f"nonfinite/{q}"]) for q in quantities}  # [seeds, iterations]
   bad = np.any(np.stack(list(flags.values())), axis=0)
-  if bad.any():
-    seed_idx, it = min(np.argwhere(bad), key=lambda x: (x[1], x[0]))
-    which = [q for q in quantities if flags[q][seed_idx, it]]
-    kept = ""
-    if checkpoint_dir:
-      kept = (f"; the last good checkpoint in {checkpoint_dir} is kept"
-              if checkpoint.exists(checkpoint_dir) else
-              f"; no checkpoint had been written to {checkpoint_dir} yet")
-    raise NonFiniteError(f"non-finite {' and '.join(which)} at iteration "
-                         f"{first_iteration + int(it)} (seed {seeds[int(seed_idx)]}){kept}")
+  if not bad.any():
+    return
+  seed_idx, it = min(np.argwhere(bad), key=lambda x: (x[1], x[0]))
+  which = [q + (_loss_detail(metrics, seed_idx, it) if q == "loss" else "")
+           for q in quantities if flags[q][seed_idx, it]]
+  kept = ""
+  if checkpoint_dir:
+    kept = (f"; the last good checkpoint in {checkpoint_dir} is kept"
+            if checkpoint.exists(checkpoint_dir) else
+            f"; no checkpoint had been written to {checkpoint_dir} yet")
+  raise NonFiniteError(f"non-finite {' and '.join(which)} at iteration "
+                       f"{first_iteration + int(it)} (seed {seeds[int(seed_idx)]}){kept}")
+
+
+def _loss_detail(metrics: dict, seed_idx, it) -> str:
+  """E.g. `` (its policy term at the first non-finite SGD step, where the largest log-ratio of pi
+  to pi_old was 91.3)``; "" where the update logged no term."""
+  terms = [k.rsplit("/", 1)[1] for k in metrics
+           if k.startswith("nonfinite/loss/") and np.asarray(metrics[k])[seed_idx, it]]
+  if not terms:
+    return ""
+  detail = (f" (its {' and '.join(terms)} term{'s' if len(terms) > 1 else ''} at the first "
+            "non-finite SGD step")
+  if "nonfinite/log_ratio_max" in metrics:
+    ratio = float(np.asarray(metrics["nonfinite/log_ratio_max"])[seed_idx, it])
+    detail += f", where the largest log-ratio of pi to pi_old was {ratio:.4g}"
+  return detail + ")"

@@ -335,7 +335,9 @@ def ppo_loss(learner: Learner, params: Params, batch: Rollout, stats: networks.R
   total = policy_loss + value_loss + entropy_loss + objective_loss
   metrics = {"loss/total": total, "loss/policy": policy_loss, "loss/value": value_loss,
              "loss/entropy": entropy_loss, "loss/objective": objective_loss,
-             "policy/entropy": entropy, **objective_metrics}
+             "policy/entropy": entropy,
+             # exp of it is PPO's ratio, which overflows float32 above about 88.7
+             "policy/log_ratio_max": jnp.max(log_prob - batch.log_prob), **objective_metrics}
   return total, metrics
 
 
@@ -350,9 +352,29 @@ def sgd_step(learner: Learner, carry, inputs):
   if post_update is not None:  # state outside the gradient, e.g. spectral-norm vectors
     params = params.replace(objective=post_update(params.objective, _transitions(batch)))
   metrics["grad_norm"] = norm = optax.global_norm(grads)
+  metrics["nonfinite/grads"] = ~jnp.all(jnp.stack([jnp.isfinite(g).all()
+                                                   for g in jax.tree.leaves(grads)]))
   if learner.config.max_grad_norm:  # 1 where the clip scaled this step down; averaged: its share
     metrics["grad_clipped"] = (norm > learner.config.max_grad_norm).astype(jnp.float32)
   return (params, opt_state, stats), metrics
+
+
+LOSS_TERMS = ("policy", "value", "entropy", "objective")
+
+
+def _first_nonfinite_step(steps: dict) -> dict:
+  """What went wrong at the first SGD step of an update whose loss or gradient was non-finite
+  (``steps``: per-step metrics ``[S]``): whether the gradient was (``nonfinite/grads``), which of
+  the loss's terms were (``nonfinite/loss/<term>``), and PPO's largest log-ratio there
+  (``nonfinite/log_ratio_max``; above about 88.7 the ratio itself overflows float32). All False
+  (the log-ratio 0) where every step was finite."""
+  bad = ~jnp.isfinite(steps["loss/total"]) | steps["nonfinite/grads"]
+  first, any_bad = jnp.argmax(bad), bad.any()
+  out = {"nonfinite/grads": any_bad & steps["nonfinite/grads"][first]}
+  out.update({f"nonfinite/loss/{t}": any_bad & ~jnp.isfinite(steps[f"loss/{t}"][first])
+              for t in LOSS_TERMS})
+  out["nonfinite/log_ratio_max"] = jnp.where(any_bad, steps["policy/log_ratio_max"][first], 0.0)
+  return out
 
 
 def update(learner: Learner, state: TrainState, data: Rollout) -> tuple[TrainState, dict]:
@@ -374,16 +396,21 @@ def update(learner: Learner, state: TrainState, data: Rollout) -> tuple[TrainSta
     return jax.lax.scan(lambda carry, inputs: sgd_step(learner, carry, inputs), carry,
                         (batches, keys))
 
-  (params, opt_state, _), metrics = jax.lax.scan(
+  (params, opt_state, _), steps = jax.lax.scan(
       epoch, (state.params, state.opt_state, normalizer),
       jax.random.split(sgd_key, c.num_updates_per_batch))
-  metrics = jax.tree.map(jnp.mean, metrics)
+  steps = jax.tree.map(lambda x: x.reshape(-1), steps)  # [epochs * minibatches], in order
+  metrics = {k: jnp.mean(v) for k, v in steps.items()
+             if k not in ("policy/log_ratio_max", "nonfinite/grads")}
+  metrics["policy/log_ratio_max"] = jnp.max(steps["policy/log_ratio_max"])
+  metrics.update(_first_nonfinite_step(steps))
   metrics.update({f"train/reward/{a}": data.reward[..., i].mean()
                   for i, a in enumerate(learner.agent_names)})
   metrics.update({
       "train/reward": data.reward.mean(),
       "train/env_reward": data.env_reward.mean(),
       "train/episode_end_rate": data.done.mean(),
+      "nonfinite/reward": ~jnp.isfinite(data.reward).all(),
       "nonfinite/loss": ~jnp.isfinite(metrics["loss/total"]),
       "nonfinite/params": ~jnp.all(jnp.stack([jnp.isfinite(x).all()
                                               for x in jax.tree.leaves(params)])),

@@ -269,6 +269,35 @@ def test_run_main_exits_other_programs_with_their_status_after_the_shutdown():
     assert proc.stdout == "[program] stoppedshutdown ran\n"
 
 
+_NONFINITE_PROGRAM = """
+import atexit, sys, threading, time
+from blx.experiments import cli
+from blx.training import loop
+atexit.register(lambda: print("shutdown ran", flush=True))
+def main():
+  if sys.argv[1] == "in-flight":  # the next chunk, still running on the device
+    threading.Thread(target=time.sleep, args=(600,), name=loop.DISPATCH_THREAD,
+                     daemon=True).start()
+  print("[program] trained", end="")  # unflushed, to a pipe
+  raise loop.NonFiniteError("non-finite loss at iteration 3 (seed 1)")
+cli.run_main(main)
+"""
+
+
+@pytest.mark.parametrize("when", ["in-flight", "between"])
+def test_run_main_ends_a_non_finite_run_with_one_line_and_status_2(when):
+  # A chunk in flight when the error comes: the process ends at once, output flushed, without the
+  # shutdown, which on a GPU stopped the dispatch thread inside XLA and aborted (status 134,
+  # session 50); without one, the usual shutdown.
+  proc = subprocess.run([sys.executable, "-c", _NONFINITE_PROGRAM, when], capture_output=True,
+                        text=True, env={**os.environ, "PYTHONPATH": ROOT}, timeout=120)
+  assert proc.returncode == 2, proc.stderr[-2000:]
+  assert "Traceback" not in proc.stderr
+  assert proc.stderr.strip().endswith("error: non-finite loss at iteration 3 (seed 1)")
+  shutdown = "" if when == "in-flight" else "shutdown ran\n"
+  assert proc.stdout.endswith("[program] trained" + shutdown)  # (after mjx's import notice)
+
+
 def test_a_task_sweeps_table_gives_the_episode_length_beside_the_score(tmp_path):
   # Two legs flip within 240 of 1,000 steps and so score higher than four that run (session 26);
   # only the length tells.

@@ -99,11 +99,18 @@ def test_non_finite_loss_stops_training_and_keeps_the_last_checkpoint(tmp_path):
   directory = str(tmp_path / "ckpt")
   checkpoint.save(directory, {"x": np.ones(3)}, {"chunk": 1})  # an earlier good checkpoint
   before = open(checkpoint.path(directory), "rb").read()
-  with pytest.raises(training.NonFiniteError, match=r"non-finite loss at iteration 0 \(seed 0\); "
-                                                    r"the last good checkpoint in .* is kept"):
+  # The loss's NaN is in its objective term (the gradient of w stays finite), from the update's
+  # first SGD step on, where the policy has not been stepped yet: its ratio is far from overflow
+  # (not 1 exactly: the normaliser takes in the batch before the step, as in Brax).
+  with pytest.raises(training.NonFiniteError,
+                     match=r"non-finite loss \(its objective term at the first non-finite SGD step, "
+                           r"where the largest log-ratio of pi to pi_old was ([-0-9.e]+)\) at "
+                           r"iteration 0 \(seed 0\); the last good checkpoint in .* is kept") as e:
     env = envs.create("point", episode_length=20)
     training.train(env, reach_latent(poison=True), SMALL, progress=False,
                    checkpoint_dir=directory)
+  log_ratio = float(re.search(r"was ([-0-9.e]+)\)", str(e.value)).group(1))
+  assert 0 < log_ratio < 10, log_ratio
   assert open(checkpoint.path(directory), "rb").read() == before
 
 
@@ -178,6 +185,28 @@ def test_non_finite_report_names_the_first_bad_iteration_and_everything_bad_ther
     _check_finite(metrics, 10, [7, 8], "ckpt")   # "ckpt" holds no checkpoint
   flags["loss"][1, 2] = flags["observation"][1, 2] = flags["params"][1, 2] = flags["loss"][1, 3] = False
   _check_finite(metrics, 10, [7, 8], None)  # all finite: no error
+
+
+def test_non_finite_report_names_the_reward_and_the_loss_terms_with_the_log_ratio():
+  from blx.training.loop import _check_finite
+  shape = (1, 3)  # [seeds, iterations]
+  names = ("observation", "reward", "loss", "grads", "params", "loss/policy", "loss/value",
+           "loss/entropy", "loss/objective")
+  flags = {q: np.zeros(shape, bool) for q in names}
+  metrics = {f"nonfinite/{q}": f for q, f in flags.items()}
+  metrics["nonfinite/log_ratio_max"] = np.array([[0.0, 91.25, 0.0]])
+  flags["reward"][0, 2] = True
+  with pytest.raises(training.NonFiniteError, match=r"^non-finite reward at iteration 2 \(seed 0\)$"):
+    _check_finite(metrics, 0, [0], None)
+  # Iteration 1 comes first: PPO's ratio overflowed (log-ratio above 88.7) in its policy term,
+  # and the gradient and the parameters followed.
+  for q in ("loss", "loss/policy", "loss/value", "grads", "params"):
+    flags[q][0, 1] = True
+  with pytest.raises(training.NonFiniteError,
+                     match=r"^non-finite loss \(its policy and value terms at the first non-finite "
+                           r"SGD step, where the largest log-ratio of pi to pi_old was 91.25\) and "
+                           r"grads and params at iteration 1 \(seed 0\)$"):
+    _check_finite(metrics, 0, [0], None)
 
 
 def test_ppo_loss_bootstraps_from_the_true_next_states():
@@ -437,30 +466,44 @@ def test_max_grad_norm_scales_each_gradient_to_its_global_norm_before_adam():
   assert not np.allclose(clipped[1]["w"], plain[1]["w"], rtol=1e-3)
 
 
+def _sgd_step_metrics(config, old_log_prob_shift=0.0):
+  """The metrics of one PPO SGD step of a fresh learner on a tiny batch whose behaviour policy is
+  the learner's own (its log-probabilities moved by ``old_log_prob_shift``)."""
+  from blx.training import networks, ppo
+
+  learner = ppo.make_learner(3, 2, task(), config)
+  keys = jax.random.split(jax.random.PRNGKey(0), 6)
+  params = ppo.Params(policy=learner.policy_net.init(keys[0], jnp.zeros(3)),
+                      value=learner.value_net.init(keys[1], jnp.zeros(3)), objective=None)
+  stats = networks.init_stats(3)
+  obs = jax.random.normal(keys[2], (1, 4, 3))
+  logits = learner.policy_net.apply(params.policy, learner.policy_input(stats, obs, None))
+  raw = networks.sample_raw_action(logits, keys[3])
+  reward = jax.random.normal(keys[4], (1, 4))
+  batch = ppo.Rollout(obs=obs, raw_action=raw, action=jnp.tanh(raw),
+                      log_prob=networks.log_prob_raw(logits, raw) + old_log_prob_shift,
+                      next_obs=obs + 0.1, reward=reward, env_reward=reward,
+                      done=jnp.zeros((1, 4)), truncation=jnp.zeros((1, 4)), z=jnp.zeros((1, 4, 0)))
+  carry = (params, learner.optimizer.init(params), stats)
+  return ppo.sgd_step(learner, carry, (batch, keys[5]))[1]
+
+
+def test_log_ratio_max_is_the_largest_log_of_ppos_ratio():
+  """``policy/log_ratio_max``: log pi - log pi_old at its largest over the batch; 0 where the
+  batch came from the policy itself, 5 where its log-probabilities were 5 lower. exp of it
+  overflows float32 above about 88.7, which is what the non-finite report gives it for."""
+  assert float(_sgd_step_metrics(SMALL)["policy/log_ratio_max"]) == pytest.approx(0.0, abs=1e-5)
+  shifted = _sgd_step_metrics(SMALL, old_log_prob_shift=-5.0)
+  assert float(shifted["policy/log_ratio_max"]) == pytest.approx(5.0, abs=1e-5)
+  assert not bool(shifted["nonfinite/grads"])
+
+
 def test_grad_clipped_logs_whether_the_clip_scaled_the_step_down():
   """``grad_clipped`` is 1 for an SGD step whose gradient norm is above ``max_grad_norm`` and 0 for
   one below (the chunk's mean: the share of clipped steps); without a clip it is not logged."""
   import dataclasses
 
-  from blx.training import networks, ppo
-
-  def step(config):
-    learner = ppo.make_learner(3, 2, task(), config)
-    keys = jax.random.split(jax.random.PRNGKey(0), 6)
-    params = ppo.Params(policy=learner.policy_net.init(keys[0], jnp.zeros(3)),
-                        value=learner.value_net.init(keys[1], jnp.zeros(3)), objective=None)
-    stats = networks.init_stats(3)
-    obs = jax.random.normal(keys[2], (1, 4, 3))
-    logits = learner.policy_net.apply(params.policy, learner.policy_input(stats, obs, None))
-    raw = networks.sample_raw_action(logits, keys[3])
-    reward = jax.random.normal(keys[4], (1, 4))
-    batch = ppo.Rollout(obs=obs, raw_action=raw, action=jnp.tanh(raw),
-                        log_prob=networks.log_prob_raw(logits, raw), next_obs=obs + 0.1,
-                        reward=reward, env_reward=reward, done=jnp.zeros((1, 4)),
-                        truncation=jnp.zeros((1, 4)), z=jnp.zeros((1, 4, 0)))
-    carry = (params, learner.optimizer.init(params), stats)
-    return ppo.sgd_step(learner, carry, (batch, keys[5]))[1]
-
+  step = _sgd_step_metrics
   plain = step(SMALL)
   norm = float(plain["grad_norm"])
   assert "grad_clipped" not in plain and norm > 0
@@ -489,3 +532,23 @@ def test_off_row_names_the_settings_a_run_changed_from_its_envs_row():
   assert off_row("ant", ant) == {}
   assert off_row("halfcheetah", ant) == {"reward_scaling": (ant["reward_scaling"],
                                                             row.reward_scaling)}
+
+
+def test_first_nonfinite_step_reports_the_first_bad_sgd_step_not_the_ones_after_it():
+  from blx.training.ppo import _first_nonfinite_step
+  nan, inf = float("nan"), float("inf")
+  # Step 1: PPO's ratio overflowed (log-ratio 90), an infinite policy term and total, and a NaN
+  # gradient; from step 2 on, everything is NaN, as after a NaN parameter update.
+  steps = {"loss/total": [1.0, inf, nan], "loss/policy": [0.5, inf, nan],
+           "loss/value": [0.2, 0.3, nan], "loss/entropy": [0.0, 0.0, nan],
+           "loss/objective": [0.3, 0.4, nan], "policy/log_ratio_max": [0.1, 90.0, nan],
+           "nonfinite/grads": [False, True, True]}
+  out = jax.device_get(_first_nonfinite_step({k: jnp.asarray(v) for k, v in steps.items()}))
+  assert bool(out["nonfinite/grads"]) and bool(out["nonfinite/loss/policy"])
+  assert not any(bool(out[f"nonfinite/loss/{t}"]) for t in ("value", "entropy", "objective"))
+  assert float(out["nonfinite/log_ratio_max"]) == 90.0
+  # A finite update reports nothing, and a log-ratio of 0.
+  finite = {k: jnp.asarray(v[:1]) for k, v in steps.items()}
+  out = jax.device_get(_first_nonfinite_step(finite))
+  assert not any(bool(v) for k, v in out.items() if k != "nonfinite/log_ratio_max")
+  assert float(out["nonfinite/log_ratio_max"]) == 0.0
