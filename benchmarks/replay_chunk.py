@@ -6,8 +6,8 @@ A run stopped by a non-finite loss keeps its last good checkpoint (``training.No
 this script takes that checkpoint's state for one seed and runs the iterations that followed it
 (``Trainer.collect`` then ``Trainer.update``, as a chunk does) on this machine, printing each
 iteration's PPO statistics: the loss's terms, the gradient norm, ``policy/log_ratio_max`` (PPO's
-ratio overflows float32 above about 88.7), the policy's entropy and the non-finite flags, and at a
-non-finite step the report ``train`` gives. A checkpoint written without the envs' state starts
+ratio overflows float32 above about 88.7) and the policy's entropy, and at a non-finite iteration
+the report ``train`` gives. A checkpoint written without the envs' state starts
 every env anew, as a resume does.
 
 The replay is the run's own computation for that seed, but on another device (or another XLA
@@ -32,7 +32,7 @@ import common  # noqa: E402,F401  (the repository on the path)
 
 from blx import training  # noqa: E402
 from blx.experiments import runs  # noqa: E402
-from blx.training import loop  # noqa: E402
+from blx.training import checkpoint, loop  # noqa: E402
 
 SHOWN = ("loss/policy", "loss/value", "loss/entropy", "loss/objective", "grad_norm",
          "grad_clipped", "policy/log_ratio_max", "policy/entropy")
@@ -103,7 +103,10 @@ def main(argv=None) -> int:
                       help="iterations to replay (default: one chunk's)")
   parser.add_argument("--out", help="also write the iterations' statistics to this JSON file")
   args = parser.parse_args(argv)
-  rows, error, _ = replay(args.run_dir, args.seed, args.iterations)
+  try:
+    rows, error, _ = replay(args.run_dir, args.seed, args.iterations)
+  except (runs.RunError, checkpoint.CheckpointError, OSError) as e:  # not a run, no checkpoint
+    parser.error(f"{args.run_dir}: {e}")
   if args.out:
     with open(args.out, "w") as f:
       json.dump({"run": args.run_dir, "seed": args.seed, "device": jax.devices()[0].platform,

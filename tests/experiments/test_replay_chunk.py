@@ -55,3 +55,10 @@ def test_replaying_the_next_chunk_gives_the_runs_own_parameters(stopped_and_whol
 def test_a_seed_the_run_does_not_have_is_refused(stopped_and_whole):
   with pytest.raises(SystemExit, match=r"--seed 7: the run's seeds are \[0, 1\]"):
     replay_chunk.replay(stopped_and_whole[0], 7, show=False)
+
+
+def test_a_directory_without_a_run_or_a_checkpoint_is_one_line_of_error(tmp_path, capsys):
+  with pytest.raises(SystemExit) as e:
+    replay_chunk.main([str(tmp_path), "--seed", "0"])
+  assert e.value.code == 2
+  assert "is not a blx run directory (no config.json)" in capsys.readouterr().err
