@@ -46,14 +46,13 @@ def seed_state(run_dir: str, seed: int):
     raise SystemExit(f"replay_chunk: --seed {seed}: the run's seeds are {list(spec.seeds)}")
   env, objective, config = runs.build(spec)
   trainer = training.make_trainer(env, objective, config)
-  keys = jax.numpy.stack([jax.random.PRNGKey(s) for s in spec.seeds])
-  like = jax.eval_shape(jax.vmap(trainer.init), keys)
+  init_keys, _ = loop.run_keys(spec.seeds)
+  like = jax.eval_shape(jax.vmap(trainer.init), init_keys)
   state, meta = training.restore_state(os.path.join(run_dir, "checkpoint"), like)
   index = list(spec.seeds).index(seed)
-  init_key = jax.random.split(jax.random.PRNGKey(seed))[0]  # as train's init_keys
   state = jax.tree.map(lambda x: x[index], state)  # (an absent env_state stays None)
-  if state.env_state is None:
-    state = state.replace(env_state=jax.jit(trainer.init)(init_key).env_state)
+  if state.env_state is None:  # as train's resume: the seed's envs anew from its init key
+    state = state.replace(env_state=jax.jit(trainer.init)(init_keys[index]).env_state)
   return trainer, state, meta
 
 

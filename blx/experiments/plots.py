@@ -126,6 +126,12 @@ def band_caption(num_seeds: int, keys: Sequence[str] = ()) -> str:
           "over the chunk's training iterations.")
 
 
+def logged_keys(history: list[dict]) -> list[str]:
+  """Every key any row of ``history`` logged, in first-seen order: a statistic first logged when a
+  run resumed (e.g. ``grad_clipped``) is drawn from there on."""
+  return list(dict.fromkeys(k for row in history for k in row))
+
+
 def _curve(history: list[dict], key: str) -> np.ndarray:
   """``key``'s values per evaluation and seed, ``[E, seeds]``; NaN (a gap in the curve) where an
   evaluation did not log it."""
@@ -142,9 +148,7 @@ def training_curves(history: list[dict], path: str, *, titles: dict[str, str] | 
   which the LGR was scored on the paper's goals and before which on blx's old ones (a run resumed
   across session 41, ``runs.lgr_goals_switch``), marked in the LGR panels."""
   plt = _pyplot()
-  # Every row's keys: a statistic first logged when a run resumed (e.g. ``grad_clipped``) is drawn
-  # from there on.
-  logged = list(dict.fromkeys(k for row in history for k in row))
+  logged = logged_keys(history)
   keys = list(dict.fromkeys(k for p in CURVE_PATTERNS for k in logged if re.match(p, k)))
   cols = min(3, max(1, len(keys)))
   rows = max(1, -(-len(keys) // cols))
@@ -371,8 +375,7 @@ def write_all(run, history: list[dict], *, seed_index: int = 0, key_seed: int = 
   trained = f"{run.objective.name} on {run.spec.env}" + (f"; {options}" if options else "")
   if history:
     path = os.path.join(out_dir, "training_curves.png")
-    logged = list(dict.fromkeys(k for row in history for k in row))
-    training_curves(history, path, titles=curve_titles(logged, run.objective),
+    training_curves(history, path, titles=curve_titles(logged_keys(history), run.objective),
                     title=f"{trained}: training curves", lgr_goals_from=lgr_goals_from)
     written.append(path)
   if run.params is None:

@@ -20,7 +20,7 @@ from blx.training import checkpoint
 from blx.training.config import PPOConfig, check_seeds
 from blx.training.ppo import PolicyParams, Trainer, TrainState, make_trainer, policy_params
 
-__all__ = ["TrainResult", "train", "NonFiniteError", "evaluate_together", "compile_all",
+__all__ = ["TrainResult", "train", "run_keys", "NonFiniteError", "evaluate_together", "compile_all",
            "parallel_compile_default", "restore_state", "drop_env_state"]
 
 
@@ -119,9 +119,7 @@ def train(env: Any, objective: Objective, config: PPOConfig, *, seeds: Sequence[
   """
   seeds = list(check_seeds(seeds, "train: seeds"))
   trainer = make_trainer(env, objective, config)
-  keys = jnp.stack([jax.random.PRNGKey(s) for s in seeds])
-  init_keys = jax.vmap(lambda k: jax.random.split(k)[0])(keys)
-  eval_keys = jax.vmap(lambda k: jax.random.split(k)[1])(keys)
+  init_keys, eval_keys = run_keys(seeds)
   init_fn = jax.jit(jax.vmap(trainer.init))
   chunk_fn = jax.jit(jax.vmap(trainer.chunk))
   evaluate_all = evaluate_together(trainer, evaluate)
@@ -219,6 +217,14 @@ def train(env: Any, objective: Objective, config: PPOConfig, *, seeds: Sequence[
 
 
 DISPATCH_THREAD = "blx-dispatch"  # the thread's name, by which ``cli.run_main`` finds it
+
+
+def run_keys(seeds: Sequence[int]) -> tuple[jax.Array, jax.Array]:
+  """``(init_keys, eval_keys)``, each ``[seeds, 2]``: the keys ``train`` derives from each seed
+  for the training state (``Trainer.init``) and for the evaluations after each chunk."""
+  keys = jnp.stack([jax.random.PRNGKey(s) for s in seeds])
+  return (jax.vmap(lambda k: jax.random.split(k)[0])(keys),
+          jax.vmap(lambda k: jax.random.split(k)[1])(keys))
 
 
 def _in_background(fn: Callable, *args) -> concurrent.futures.Future:

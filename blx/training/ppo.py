@@ -352,11 +352,15 @@ def sgd_step(learner: Learner, carry, inputs):
   if post_update is not None:  # state outside the gradient, e.g. spectral-norm vectors
     params = params.replace(objective=post_update(params.objective, _transitions(batch)))
   metrics["grad_norm"] = norm = optax.global_norm(grads)
-  metrics["nonfinite/grads"] = ~jnp.all(jnp.stack([jnp.isfinite(g).all()
-                                                   for g in jax.tree.leaves(grads)]))
+  metrics["nonfinite/grads"] = ~_all_finite(grads)
   if learner.config.max_grad_norm:  # 1 where the clip scaled this step down; averaged: its share
     metrics["grad_clipped"] = (norm > learner.config.max_grad_norm).astype(jnp.float32)
   return (params, opt_state, stats), metrics
+
+
+def _all_finite(tree) -> jax.Array:
+  """Whether every number in the pytree ``tree`` is finite, a scalar bool."""
+  return jnp.all(jnp.stack([jnp.isfinite(x).all() for x in jax.tree.leaves(tree)]))
 
 
 LOSS_TERMS = ("policy", "value", "entropy", "objective")
@@ -412,8 +416,7 @@ def update(learner: Learner, state: TrainState, data: Rollout) -> tuple[TrainSta
       "train/episode_end_rate": data.done.mean(),
       "nonfinite/reward": ~jnp.isfinite(data.reward).all(),
       "nonfinite/loss": ~jnp.isfinite(metrics["loss/total"]),
-      "nonfinite/params": ~jnp.all(jnp.stack([jnp.isfinite(x).all()
-                                              for x in jax.tree.leaves(params)])),
+      "nonfinite/params": ~_all_finite(params),
       "nonfinite/observation": ~(jnp.isfinite(data.obs).all() & jnp.isfinite(data.next_obs).all()),
   })
   state = state.replace(params=params, opt_state=opt_state, normalizer=normalizer, key=key,
