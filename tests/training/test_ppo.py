@@ -552,3 +552,22 @@ def test_first_nonfinite_step_reports_the_first_bad_sgd_step_not_the_ones_after_
   out = jax.device_get(_first_nonfinite_step(finite))
   assert not any(bool(v) for k, v in out.items() if k != "nonfinite/log_ratio_max")
   assert float(out["nonfinite/log_ratio_max"]) == 0.0
+
+
+def test_a_chunks_row_keeps_a_max_statistics_largest_and_the_others_mean():
+  # One chunk of four iterations: the history row's policy/log_ratio_max is the largest of the
+  # four iterations' values, its loss/policy their mean (the same chunk, run by hand).
+  import dataclasses
+
+  config = dataclasses.replace(SMALL, num_timesteps=4 * 160, num_evals=1)
+  env = envs.create("point", episode_length=20)
+  objective = reach_latent()
+  trainer = training.make_trainer(env, objective, config)
+  assert trainer.iterations_per_chunk == 4
+  init_keys, _ = training.loop.run_keys([3])
+  _, metrics = jax.jit(jax.vmap(trainer.chunk))(jax.vmap(trainer.init)(init_keys))
+  ratio, policy = np.asarray(metrics["policy/log_ratio_max"]), np.asarray(metrics["loss/policy"])
+  assert len(set(ratio[0].round(6))) > 1  # the iterations differ, so max and mean differ
+  row = training.train(env, objective, config, seeds=(3,), progress=False).metrics[0]
+  np.testing.assert_allclose(row["policy/log_ratio_max"], ratio.max(axis=1), rtol=1e-5)
+  np.testing.assert_allclose(row["loss/policy"], policy.mean(axis=1), rtol=1e-4, atol=1e-7)
