@@ -29,7 +29,14 @@ each, the last 500 steps scored, actions sampled unless ``--deterministic``):
 - ``skill_means``: every skill's mean, sorted (a list per seed);
 - ``mi_smoothed``: a diagnostic, never the protocol. The same estimator on the feature averaged over
   the ``--window`` steps up to each state (default 20), which removes most of a stride's swing.
-  How much MI the swing costs.
+  How much MI the swing costs;
+- ``share_out_of_range``: the share of the scored states outside the histogram's range
+  [-obs_scale, obs_scale]. The estimator counts them in N but in no bin, so a skill that runs
+  beyond the range adds to neither H(s) nor its H(s|z): one of K equally likely skills wholly
+  outside costs ln K / K of the MI, however well it is separated;
+- ``mi_wide``: a diagnostic, never the protocol. The same estimator with bins of the same width
+  over twice the range (2 x 1000 bins over [-2 obs_scale, 2 obs_scale]), where it counts those
+  states. How much MI the range costs.
 
 Prints the mean +- std over seeds and ln K; writes every per-seed value to ``--out`` (default
 RUN_DIR/skill_spread.json or skill_spread_deterministic.json).
@@ -91,6 +98,9 @@ def spread(states: jax.Array, scale: float, last: int, window: int) -> dict:
                                             value_range=(-scale, scale), num_labels=k)
   protocol = mi(scored)
   smoothed = mi(trailing_mean(states, window)[:, :, -last:])
+  wide = metrics.mutual_information(scored.reshape(-1, d), labels, bins=2 * BINS,
+                                    value_range=(-2 * scale, 2 * scale), num_labels=k)
+  outside = (jnp.abs(scored) > scale).mean((0, 1, 2))
   episode_mean = scored.mean(2)                                   # [K, M, D]
   skill_mean = episode_mean.mean(1)                               # [K, D]
   within = scored.var(2).mean((0, 1))
@@ -107,7 +117,8 @@ def spread(states: jax.Array, scale: float, last: int, window: int) -> dict:
           "share_between_episodes": between_episodes / total,
           "share_within_episode": within / total,
           "stride_std": stride, "skill_gap": gap, "gap_over_stride": gap / stride,
-          "skill_means": ordered.T, "mi_smoothed": smoothed["mi"]}
+          "skill_means": ordered.T, "mi_smoothed": smoothed["mi"],
+          "share_out_of_range": outside, "mi_wide": wide["mi"]}
 
 
 def _check_run(run: runs.Run, parser) -> None:
@@ -143,14 +154,20 @@ def plot(run: runs.Run, position: int, *, deterministic: bool) -> str:
   fig, axes = plt.subplots(1, 3 if analysis else 2, figsize=(16 if analysis else 11, 4))
   (name,) = plots.feature_labels(run.env, metrics.eval_indices(run.objective)[:1])
   ax = axes[0]
-  edges = np.linspace(-scale, scale, 201)
+  reach = max(scale, float(np.abs(scored).max()))
+  edges = np.linspace(-reach, reach, 201)
   for s in order:
     ax.hist(scored[s].ravel(), bins=edges, color=colors[s], alpha=0.6,
             label=f"skill {s}: mean {scored[s].mean():+.2f}")
+  if reach > scale:  # states the estimator counts in no bin
+    for side in (-scale, scale):
+      ax.axvline(side, color="k", ls="--", lw=1,
+                 label="the estimator's range (+-obs_scale)" if side > 0 else None)
   ax.set_xlabel(f"{name}, the scored feature")
   ax.set_ylabel("scored states")
   ax.set_title(f"each skill's scored states ({EPISODES} episodes x {last} steps)", fontsize=9)
-  ax.legend(fontsize=7, ncol=2)
+  ax.set_ylim(top=ax.get_ylim()[1] * 1.4)  # room above the bars for the legend
+  ax.legend(fontsize=7, ncol=2, loc="upper center")
   ax = axes[1]
   dt = getattr(run.env, "dt", None)
   steps = np.arange(100)

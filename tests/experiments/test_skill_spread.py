@@ -57,6 +57,23 @@ def test_a_swing_that_reaches_the_neighbours_costs_mi_and_the_smoothing_gives_it
   assert short["mi_smoothed"][0] < np.log(4) - 0.1
 
 
+def test_a_skill_beyond_the_range_costs_its_share_of_the_mi_and_the_wide_bins_give_it_back():
+  # Four skills held at one value each (two episodes, 0.1 apart): three inside [-5, 5], one at
+  # 6.5, outside. The estimator counts that skill's states in N but in no bin, so the MI is
+  # (3/4) ln 4 however well it is separated; the same bins over [-10, 10] count it: ln 4.
+  means = np.array([-1.5, -0.5, 0.5, 6.5], np.float32)
+  x = means[:, None, None] + np.array([-0.05, 0.05], np.float32)[None, :, None]
+  x = jnp.asarray(np.repeat(x, 20, axis=2)[..., None])            # [4, 2, 20, 1]
+  out = jax.jit(lambda x: skill_spread.spread(x, 5.0, 20, 10))(x)
+  np.testing.assert_allclose(out["share_out_of_range"], [0.25], rtol=1e-6)
+  np.testing.assert_allclose(out["mi"], [0.75 * np.log(4)], rtol=1e-5)
+  np.testing.assert_allclose(out["mi_wide"], [np.log(4)], rtol=1e-5)
+  # Inside the range the wide bins are the protocol's bins: the same MI.
+  inside = jax.jit(lambda x: skill_spread.spread(x, 5.0, 20, 10))(jnp.asarray(_features()))
+  np.testing.assert_allclose(inside["mi_wide"], inside["mi"], rtol=1e-5)
+  assert float(inside["share_out_of_range"][0]) == 0.0
+
+
 def test_the_trailing_mean_averages_the_window_up_to_each_step():
   x = jnp.asarray(np.random.default_rng(0).normal(size=(2, 7, 3)).astype(np.float32))
   got = np.asarray(skill_spread.trailing_mean(x, 3))
