@@ -11,7 +11,11 @@
 #    earlier one on the same machine: a call carrying .carry/B leaves .carry/A there), they are
 #    unpacked into RUN_DIR. A RUN_DIR left by an earlier call on the same machine is kept as it
 #    is, and wins. $CARRY_ROOT moves .carry. With RESUME=1 a call that finds neither refuses
-#    (status 3) rather than start the run anew: give it for a parked run.
+#    (status 3) rather than start the run anew: give it for a parked run. One pack's parts may
+#    come in different calls to the same machine: where the wheels and two packs are more than a
+#    call carries, a call of seconds carries .whl-train and each pack's first part
+#    (.carry/NAME/NAME.tar.part_000), and the next each pack's second part, so that both arms
+#    start in that call.
 # 3. Train: COMMAND runs (it must train RUN_DIR, resuming it where it exists: the studies,
 #    ablations.py, paper_tables.py and `blx sweep`, resume by themselves; `blx train` needs
 #    `--resume RUN_DIR` from the second call on), logged to $OUT/NAME.log, and is interrupted
