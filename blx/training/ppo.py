@@ -381,6 +381,14 @@ def _first_nonfinite_step(steps: dict) -> dict:
   return out
 
 
+def _over_steps(steps: dict) -> dict:
+  """An update's statistics from its SGD steps' (``steps``: per-step metrics ``[S]``): a ``_max``
+  statistic's largest, every other's mean (the rule ``train``'s chunk rows follow over
+  iterations). The gradient's flag is left to ``_first_nonfinite_step``."""
+  return {k: (jnp.max if k.endswith("_max") else jnp.mean)(v) for k, v in steps.items()
+          if k != "nonfinite/grads"}
+
+
 def update(learner: Learner, state: TrainState, data: Rollout) -> tuple[TrainState, dict]:
   """Normaliser update, then ``num_updates_per_batch`` epochs of minibatch SGD on ``data``."""
   c = learner.config
@@ -404,9 +412,7 @@ def update(learner: Learner, state: TrainState, data: Rollout) -> tuple[TrainSta
       epoch, (state.params, state.opt_state, normalizer),
       jax.random.split(sgd_key, c.num_updates_per_batch))
   steps = jax.tree.map(lambda x: x.reshape(-1), steps)  # [epochs * minibatches], in order
-  metrics = {k: jnp.mean(v) for k, v in steps.items()
-             if k not in ("policy/log_ratio_max", "nonfinite/grads")}
-  metrics["policy/log_ratio_max"] = jnp.max(steps["policy/log_ratio_max"])
+  metrics = _over_steps(steps)
   metrics.update(_first_nonfinite_step(steps))
   metrics.update({f"train/reward/{a}": data.reward[..., i].mean()
                   for i, a in enumerate(learner.agent_names)})

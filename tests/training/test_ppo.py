@@ -498,6 +498,17 @@ def test_log_ratio_max_is_the_largest_log_of_ppos_ratio():
   assert not bool(shifted["nonfinite/grads"])
 
 
+def test_an_updates_statistics_keep_a_max_statistics_largest_step_and_the_others_mean():
+  from blx.training import ppo
+
+  out = ppo._over_steps({"loss/total": jnp.array([1.0, 3.0, 5.0]),
+                         "policy/log_ratio_max": jnp.array([2.0, 7.0, 4.0]),
+                         "nonfinite/grads": jnp.array([False, False, False])})
+  assert float(out["loss/total"]) == pytest.approx(3.0)
+  assert float(out["policy/log_ratio_max"]) == 7.0
+  assert "nonfinite/grads" not in out  # _first_nonfinite_step reports it
+
+
 def test_grad_clipped_logs_whether_the_clip_scaled_the_step_down():
   """``grad_clipped`` is 1 for an SGD step whose gradient norm is above ``max_grad_norm`` and 0 for
   one below (the chunk's mean: the share of clipped steps); without a clip it is not logged."""
