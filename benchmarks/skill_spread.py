@@ -94,12 +94,13 @@ def spread(states: jax.Array, scale: float, last: int, window: int) -> dict:
   k, m, _, d = states.shape
   scored = states[:, :, -last:]                                   # [K, M, T', D]
   labels = jnp.repeat(jnp.arange(k), m * last)
-  mi = lambda x: metrics.mutual_information(x.reshape(-1, d), labels, bins=BINS,
-                                            value_range=(-scale, scale), num_labels=k)
+  # The protocol's estimator; with ``reach`` 2, its bins' width over twice the range (mi_wide).
+  mi = lambda x, reach=1: metrics.mutual_information(
+      x.reshape(-1, d), labels, bins=reach * BINS, value_range=(-reach * scale, reach * scale),
+      num_labels=k)
   protocol = mi(scored)
   smoothed = mi(trailing_mean(states, window)[:, :, -last:])
-  wide = metrics.mutual_information(scored.reshape(-1, d), labels, bins=2 * BINS,
-                                    value_range=(-2 * scale, 2 * scale), num_labels=k)
+  wide = mi(scored, reach=2)
   outside = (jnp.abs(scored) > scale).mean((0, 1, 2))
   episode_mean = scored.mean(2)                                   # [K, M, D]
   skill_mean = episode_mean.mean(1)                               # [K, D]
