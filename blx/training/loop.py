@@ -18,7 +18,8 @@ from blx import envs as envs_lib
 from blx.objectives.base import Objective
 from blx.training import checkpoint
 from blx.training.config import PPOConfig, check_seeds
-from blx.training.ppo import PolicyParams, Trainer, TrainState, make_trainer, policy_params
+from blx.training.ppo import (PolicyParams, Trainer, TrainState, make_trainer, policy_params,
+                              reduce_stats)
 
 __all__ = ["TrainResult", "train", "run_keys", "NonFiniteError", "evaluate_together", "compile_all",
            "parallel_compile_default", "restore_state", "drop_env_state"]
@@ -192,10 +193,8 @@ def train(env: Any, objective: Objective, config: PPOConfig, *, seeds: Sequence[
       row = {"env_steps": env_steps, "time": time_before + elapsed, "steps_per_second": rate,
              "total_steps": float(total), "eta_seconds": (total - env_steps) / max(rate, 1e-9),
              "compile_seconds": compile_seconds}
-      for k, v in metrics.items():
-        if not k.startswith("nonfinite/"):  # over the chunk's iterations: a "_max" its largest
-          reduce = np.max if k.endswith("_max") else np.mean
-          row[k] = reduce(np.asarray(v), axis=1).tolist()
+      per_seed = reduce_stats({k: np.asarray(v) for k, v in metrics.items()}, axis=1, xp=np)
+      row.update({k: v.tolist() for k, v in per_seed.items()})  # over the chunk's iterations
       row.update({k: np.asarray(v).tolist() for k, v in evals.items()})
       history.append(row)
       if checkpoint_dir:

@@ -381,12 +381,13 @@ def _first_nonfinite_step(steps: dict) -> dict:
   return out
 
 
-def _over_steps(steps: dict) -> dict:
-  """An update's statistics from its SGD steps' (``steps``: per-step metrics ``[S]``): a ``_max``
-  statistic's largest, every other's mean (the rule ``train``'s chunk rows follow over
-  iterations). The gradient's flag is left to ``_first_nonfinite_step``."""
-  return {k: (jnp.max if k.endswith("_max") else jnp.mean)(v) for k, v in steps.items()
-          if k != "nonfinite/grads"}
+def reduce_stats(stats: dict, axis: int = 0, xp=jnp) -> dict:
+  """Statistics reduced over ``axis`` (``xp``: ``jnp`` on the device, ``np`` on the host): a
+  ``_max`` statistic to its largest, every other to its mean. An update reduces its SGD steps so,
+  and ``train`` a chunk's iterations for its rows. The ``nonfinite/`` flags are left out: an
+  update reports them by ``_first_nonfinite_step``, and ``train`` checks them per iteration."""
+  return {k: (xp.max if k.endswith("_max") else xp.mean)(v, axis=axis) for k, v in stats.items()
+          if not k.startswith("nonfinite/")}
 
 
 def update(learner: Learner, state: TrainState, data: Rollout) -> tuple[TrainState, dict]:
@@ -412,7 +413,7 @@ def update(learner: Learner, state: TrainState, data: Rollout) -> tuple[TrainSta
       epoch, (state.params, state.opt_state, normalizer),
       jax.random.split(sgd_key, c.num_updates_per_batch))
   steps = jax.tree.map(lambda x: x.reshape(-1), steps)  # [epochs * minibatches], in order
-  metrics = _over_steps(steps)
+  metrics = reduce_stats(steps)
   metrics.update(_first_nonfinite_step(steps))
   metrics.update({f"train/reward/{a}": data.reward[..., i].mean()
                   for i, a in enumerate(learner.agent_names)})

@@ -501,12 +501,20 @@ def test_log_ratio_max_is_the_largest_log_of_ppos_ratio():
 def test_an_updates_statistics_keep_a_max_statistics_largest_step_and_the_others_mean():
   from blx.training import ppo
 
-  out = ppo._over_steps({"loss/total": jnp.array([1.0, 3.0, 5.0]),
-                         "policy/log_ratio_max": jnp.array([2.0, 7.0, 4.0]),
-                         "nonfinite/grads": jnp.array([False, False, False])})
+  out = ppo.reduce_stats({"loss/total": jnp.array([1.0, 3.0, 5.0]),
+                          "policy/log_ratio_max": jnp.array([2.0, 7.0, 4.0]),
+                          "nonfinite/grads": jnp.array([False, False, False])})
   assert float(out["loss/total"]) == pytest.approx(3.0)
   assert float(out["policy/log_ratio_max"]) == 7.0
   assert "nonfinite/grads" not in out  # _first_nonfinite_step reports it
+  # On the host over a chunk's iterations ([seeds, iterations]), as train's rows: per seed.
+  rows = ppo.reduce_stats({"loss/total": np.array([[1.0, 3.0], [2.0, 6.0]]),
+                           "policy/log_ratio_max": np.array([[2.0, 7.0], [9.0, 4.0]]),
+                           "nonfinite/loss/policy": np.array([[False, True], [False, False]])},
+                          axis=1, xp=np)
+  np.testing.assert_allclose(rows["loss/total"], [2.0, 4.0])
+  np.testing.assert_array_equal(rows["policy/log_ratio_max"], [7.0, 9.0])
+  assert "nonfinite/loss/policy" not in rows
 
 
 def test_grad_clipped_logs_whether_the_clip_scaled_the_step_down():
