@@ -5,9 +5,9 @@ from blx.training.loop import (NonFiniteError, TrainResult, drop_env_state, eval
                                print_progress, restore_state, train)
 from blx.training.losses import clipped_surrogate, gae
 from blx.training.ppo import (RETURN_KEYS, Params, PolicyParams, Trainer, TrainState, make_policy,
-                              make_train, make_trainer, policy_params)
+                              make_train, make_trainer, place_state, policy_params)
 
 __all__ = ["RETURN_KEYS", "PPOConfig", "ppo_defaults", "check_seeds", "NonFiniteError",
            "TrainResult", "train", "evaluate_together", "print_progress", "restore_state",
            "drop_env_state", "clipped_surrogate", "gae", "Params", "PolicyParams", "policy_params",
-           "Trainer", "TrainState", "make_policy", "make_train", "make_trainer"]
+           "Trainer", "TrainState", "make_policy", "make_train", "make_trainer", "place_state"]

@@ -18,8 +18,8 @@ from blx import envs as envs_lib
 from blx.objectives.base import Objective
 from blx.training import checkpoint
 from blx.training.config import PPOConfig, check_seeds
-from blx.training.ppo import (PolicyParams, Trainer, TrainState, make_trainer, policy_params,
-                              reduce_stats)
+from blx.training.ppo import (PolicyParams, Trainer, TrainState, make_trainer, place_state,
+                              policy_params, reduce_stats)
 
 __all__ = ["TrainResult", "train", "run_keys", "NonFiniteError", "evaluate_together", "compile_all",
            "parallel_compile_default", "restore_state", "drop_env_state"]
@@ -149,6 +149,9 @@ def train(env: Any, objective: Objective, config: PPOConfig, *, seeds: Sequence[
       state = state.replace(env_state=init_fn(init_keys).env_state)
   else:
     state = init_fn(init_keys)
+  # On several devices, the layout the chunk keeps its state in, which the programs compiled below
+  # are compiled for (a restored state comes back on one device).
+  state = place_state(state, config.num_envs)
 
   total = trainer.num_chunks * trainer.iterations_per_chunk * trainer.env_steps_per_iteration
   t0 = time.time()
@@ -165,9 +168,10 @@ def train(env: Any, objective: Objective, config: PPOConfig, *, seeds: Sequence[
     """Queues chunk ``chunk`` after ``state`` and the evaluations of its result on the device.
     Runs on the dispatch thread, which may wait there for the device (on a GPU, loops whose end
     depends on the data, as MJX's solver's, are checked from the launching thread)."""
-    state, metrics = chunk_fn(state)
+    state, metrics = chunk_fn(*_as_compiled_for(chunk_fn, state))
     fold = jax.vmap(jax.random.fold_in, (0, None))
-    evals = eval_fn(state, fold(eval_keys, chunk), fold(eval_keys, 1_000_003 + chunk))
+    evals = eval_fn(*_as_compiled_for(eval_fn, state, fold(eval_keys, chunk),
+                                      fold(eval_keys, 1_000_003 + chunk)))
     return state, metrics, evals
 
   # Chunks are dispatched from a second thread, so that the host checks, checkpoints and reports
@@ -224,6 +228,13 @@ def run_keys(seeds: Sequence[int]) -> tuple[jax.Array, jax.Array]:
   keys = jnp.stack([jax.random.PRNGKey(s) for s in seeds])
   return (jax.vmap(lambda k: jax.random.split(k)[0])(keys),
           jax.vmap(lambda k: jax.random.split(k)[1])(keys))
+
+
+def _as_compiled_for(compiled: Any, *args) -> tuple:
+  """``args`` moved to the layout over devices that ``compiled`` (a ``jax.stages.Compiled``) was
+  compiled for, which, unlike a jitted function, it does not do itself: a no-op where they are in
+  it already (on one device, always)."""
+  return tuple(jax.device_put(args, compiled.input_shardings[0]))
 
 
 def _in_background(fn: Callable, *args) -> concurrent.futures.Future:

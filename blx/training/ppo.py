@@ -28,7 +28,7 @@ from blx.training.config import PPOConfig
 
 __all__ = ["Params", "PolicyParams", "TrainState", "Trainer", "Learner", "make_learner",
            "make_trainer", "make_train", "make_policy", "network_input", "policy_params", "env_step",
-           "collect", "ppo_loss", "sgd_step", "update", "evaluate", "RETURN_KEYS"]
+           "collect", "ppo_loss", "sgd_step", "update", "evaluate", "place_state", "RETURN_KEYS"]
 
 
 @struct.dataclass
@@ -118,16 +118,44 @@ class Trainer(NamedTuple):
   env_steps_per_iteration: int  # counting the env's action repeats
 
 
-def _data_sharding(num_envs: int) -> Callable[[Any], Any]:
-  """Constrains leaves with a leading env axis to be split over all local devices."""
+def _data_mesh(num_envs: int) -> Mesh | None:
+  """The mesh the env axis is split over: all local devices; None on one device."""
   devices = jax.local_devices()
   if len(devices) == 1:
-    return lambda tree: tree
+    return None
   if num_envs % len(devices):
     raise ValueError(f"num_envs={num_envs} must be divisible by the {len(devices)} local devices")
-  sharding = NamedSharding(Mesh(np.array(devices), ("data",)), PartitionSpec("data"))
+  return Mesh(np.array(devices), ("data",))
+
+
+def _data_sharding(num_envs: int) -> Callable[[Any], Any]:
+  """Constrains leaves with a leading env axis to be split over all local devices."""
+  mesh = _data_mesh(num_envs)
+  if mesh is None:
+    return lambda tree: tree
+  sharding = NamedSharding(mesh, PartitionSpec("data"))
   return lambda tree: jax.tree.map(
       lambda x: jax.lax.with_sharding_constraint(x, sharding) if x.ndim else x, tree)
+
+
+def place_state(state: TrainState, num_envs: int) -> TrainState:
+  """A state batched over seeds (``[seeds, ...]`` leaves, as ``train`` holds it) laid out on the
+  local devices as a chunk keeps it: the env axis (axis 1) of ``env_state`` and ``z`` split over
+  the devices, everything else replicated on each. Unchanged on one device.
+
+  A chunk compiled ahead of time takes its inputs only in the layout it was compiled for. A state
+  restored from a checkpoint comes back on one device, where the chunk's result is spread over
+  all: compiled for the first, the programs refuse the second after the first chunk."""
+  mesh = _data_mesh(num_envs)
+  if mesh is None:
+    return state
+  split = NamedSharding(mesh, PartitionSpec(None, "data"))
+  whole = NamedSharding(mesh, PartitionSpec())
+  # (XLA keeps an empty leaf whole; so does the layout, which the chunk's result then matches.)
+  per_env = lambda tree: jax.tree.map(lambda x: split if x.ndim > 1 and x.size else whole, tree)
+  layout = jax.tree.map(lambda _: whole, state).replace(env_state=per_env(state.env_state),
+                                                        z=per_env(state.z))
+  return jax.device_put(state, layout)
 
 
 def _transitions(batch: Rollout) -> Transition:

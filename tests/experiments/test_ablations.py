@@ -518,6 +518,9 @@ def test_the_wall_time_table_names_the_devices_each_run_trained_on_once_any_reco
   assert ablations.ran_on([]) == "not recorded"
   assert ablations.ran_on([segment("H200"), segment("H200"), segment("H100")]) == "H200, then H100"
   assert ablations.ran_on([segment("H100", 2)]) == "H100 x 2"
+  # a process that trained nothing (it failed before its first chunk ended) is left out
+  failed = runs.Segment("2026-11-28T20:17:10Z", 1.0, 1.0, "H200", "gpu", 2, {})
+  assert ablations.ran_on([segment("H200"), failed, segment("H200")]) == "H200"
   # a run begun before blx recorded devices, resumed after: the first 37.4 M steps are unknown
   resumed = runs.Segment("2026-11-26T00:41:20Z", 37.4e6, 46.7e6, "H200", "gpu", 1, {})
   assert ablations.ran_on([resumed]) == "not recorded to 37.4 M steps, then H200"

@@ -1,11 +1,13 @@
 """Trains the SMALL config on `point` in a fresh process; used by the resume and sharding tests.
 
 usage: python -m tests.training._run MODE OUT [CKPT]
-  MODE full: train to the end; interrupt: Ctrl-C after the first chunk; resume: continue CKPT;
+  MODE full: train to the end; interrupt: Ctrl-C after the first chunk; resume: continue CKPT
+  (on as many devices as the process has, whatever the checkpoint was written on);
   in-flight: Ctrl-C after the first chunk while the second is held up on the device (an evaluator
   whose host callback sleeps $BLX_TEST_SLEEP seconds from its second call on); prints the time of
   the Ctrl-C.
-Writes the final policy params (flattened leaves) to OUT.npz.
+Writes the final policy params (flattened leaves) to OUT.npz, with the number of local devices
+and of the final state's leaves laid out otherwise than `place_state` lays them out.
 """
 
 import os
@@ -50,7 +52,12 @@ def main():
   except KeyboardInterrupt:
     sys.exit(130)
   leaves = jax.tree.leaves(jax.device_get(result.params))
-  np.savez(out, *leaves, devices=len(jax.local_devices()))
+  # The state's leaves that are not laid out as place_state lays out a state for the chunk (the
+  # layout the programs were compiled for): each such leaf would move between chunks.
+  final = jax.tree.leaves(result.state)
+  placed = jax.tree.leaves(training.place_state(result.state, config.num_envs))
+  moved = sum(not a.sharding.is_equivalent_to(b.sharding, a.ndim) for a, b in zip(final, placed))
+  np.savez(out, *leaves, devices=len(jax.local_devices()), moved=moved)
 
 
 if __name__ == "__main__":

@@ -6,6 +6,7 @@ from __future__ import annotations
 import functools
 import os
 import re
+import shutil
 import subprocess
 import sys
 import time
@@ -114,6 +115,10 @@ def test_non_finite_loss_stops_training_and_keeps_the_last_checkpoint(tmp_path):
   assert open(checkpoint.path(directory), "rb").read() == before
 
 
+_TWO_DEVICES = {"XLA_FLAGS": f"{os.environ.get('XLA_FLAGS', '')} "
+                "--xla_force_host_platform_device_count=2"}
+
+
 def _run(*args, env=None):
   env = {**os.environ, "PYTHONPATH": ROOT, **(env or {})}
   return subprocess.run([sys.executable, "-m", "tests.training._run", *args], cwd=ROOT, env=env,
@@ -133,10 +138,21 @@ def test_resume_after_interrupt_in_a_fresh_process_gives_identical_params(tmp_pa
   assert interrupted.returncode == 130, interrupted.stderr[-3000:]
   assert "resume=True" in interrupted.stderr
   assert checkpoint.read_meta(ckpt)["chunk"] == 1
+  shutil.copytree(ckpt, tmp_path / "ckpt_two")
   resumed = _run("resume", str(tmp_path / "resumed.npz"), ckpt)
   assert resumed.returncode == 0, resumed.stderr[-3000:]
   for a, b in zip(_leaves(tmp_path / "full.npz"), _leaves(tmp_path / "resumed.npz")):
     np.testing.assert_array_equal(a, b)
+  # The same checkpoint, written on one device, resumed on two: the restored state (on one
+  # device) is laid out as the chunk keeps it, which the compiled programs used to refuse after
+  # the first chunk; it ends as the one-device run does, up to the order of reductions, and with
+  # no leaf laid out otherwise, so nothing moves between chunks.
+  two = _run("resume", str(tmp_path / "two.npz"), str(tmp_path / "ckpt_two"), env=_TWO_DEVICES)
+  assert two.returncode == 0, two.stderr[-3000:]
+  with np.load(tmp_path / "two.npz") as f:
+    assert (int(f["devices"]), int(f["moved"])) == (2, 0)
+  for a, b in zip(_leaves(tmp_path / "resumed.npz"), _leaves(tmp_path / "two.npz")):
+    np.testing.assert_allclose(a, b, rtol=1e-3, atol=1e-4)
 
 
 def test_an_interrupt_does_not_wait_for_the_chunk_in_flight(tmp_path):
@@ -156,9 +172,7 @@ def test_two_devices_match_one_device(tmp_path):
   # The env axis is sharded over the devices; the global batch, its permutation and the gradient
   # are the same arithmetic, so only the order of floating-point reductions differs.
   one = _run("dp", str(tmp_path / "one.npz"))
-  two = _run("dp", str(tmp_path / "two.npz"),
-             env={"XLA_FLAGS": f"{os.environ.get('XLA_FLAGS', '')} "
-                  "--xla_force_host_platform_device_count=2"})
+  two = _run("dp", str(tmp_path / "two.npz"), env=_TWO_DEVICES)
   assert one.returncode == 0, one.stderr[-3000:]
   assert two.returncode == 0, two.stderr[-3000:]
   assert int(np.load(tmp_path / "two.npz")["devices"]) == 2

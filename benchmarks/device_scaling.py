@@ -1,0 +1,130 @@
+"""One run's training throughput on 1 and on more devices of this machine, measured in one call.
+
+    python benchmarks/device_scaling.py [--env pro_ant_run] [--env-param num_legs=4 ...]
+                                        [--seeds 10] [--devices 1,2] [--chunks 2]
+                                        [--iterations 20] [--num-envs N]
+
+``training.train`` shards the env axis of every seed over all local devices (seeds stay vmapped
+on each). For each device count k this trains the same run (``--env``'s PPO row, the task
+objective, ``--seeds`` seeds) for ``--chunks`` chunks of ``--iterations`` PPO iterations, each
+followed by PPO's evaluation, in a process of its own that sees the first k devices
+(``CUDA_VISIBLE_DEVICES``; on a machine without ``nvidia-smi``, k CPU devices through
+``--xla_force_host_platform_device_count``). It prints a Markdown table: compile seconds, env steps
+per second per seed over the chunks (the loop's own figure: compilation left out, evaluations
+in), and the speed-up over the first device count. The default is ``legs_original``'s four-legged
+arm on the ant's row, at the original's physics step.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import shutil
+import subprocess
+import sys
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import common  # noqa: E402
+
+CHILD = "--child-devices"
+
+
+def env_params(pairs: list[str]) -> dict:
+  """``["num_legs=4", ...]`` as ``{"num_legs": 4}`` (values read as JSON where they parse)."""
+  params = {}
+  for pair in pairs:
+    key, sep, value = pair.partition("=")
+    if not sep or not key:
+      raise SystemExit(f"device_scaling: --env-param takes KEY=VALUE, got {pair!r}")
+    try:
+      params[key] = json.loads(value)
+    except json.JSONDecodeError:
+      params[key] = value
+  return params
+
+
+def device_counts(text: str) -> list[int]:
+  try:
+    counts = [int(x) for x in text.split(",")]
+  except ValueError:
+    counts = []
+  if not counts or min(counts) < 1 or len(set(counts)) != len(counts):
+    raise SystemExit(f"device_scaling: --devices takes distinct counts of at least 1, e.g. 1,2; "
+                     f"got {text!r}")
+  return counts
+
+
+def measure(args, devices: int) -> dict:
+  """Trains the run on the ``devices`` local devices this process sees; one row of the table."""
+  import jax
+
+  from blx import envs, training
+  from blx.objectives import task
+
+  found = len(jax.local_devices())
+  if found != devices:
+    raise SystemExit(f"device_scaling: asked for {devices} devices, this process sees {found}")
+  env = envs.create(args.env, **env_params(args.env_param))
+  config = training.ppo_defaults(args.env)
+  if args.num_envs:
+    config = config.replace(num_envs=args.num_envs)
+  steps = config.env_steps_per_iteration * getattr(env, "action_repeat", 1)
+  config = config.replace(num_timesteps=args.chunks * args.iterations * steps,
+                          num_evals=args.chunks)
+  result = training.train(env, task(), config, seeds=tuple(range(args.seeds)), progress=False)
+  last = result.metrics[-1]
+  return dict(devices=devices, device=jax.local_devices()[0].device_kind,
+              env_steps=last["env_steps"], compile_s=last["compile_seconds"],
+              steps_per_s=last["steps_per_second"])
+
+
+def main():
+  parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+  parser.add_argument("--env", default="pro_ant_run")
+  parser.add_argument("--env-param", action="append", default=None, metavar="KEY=VALUE",
+                      help="an env parameter (repeat for more); default num_legs=4 on pro_ant_run")
+  parser.add_argument("--seeds", type=int, default=10)
+  parser.add_argument("--devices", default="1,2", help="device counts, e.g. 1,2")
+  parser.add_argument("--chunks", type=int, default=2)
+  parser.add_argument("--iterations", type=int, default=20, help="PPO iterations per chunk")
+  parser.add_argument("--num-envs", type=int, default=None, help="envs per seed (the row's)")
+  parser.add_argument(CHILD, type=int, default=None, help=argparse.SUPPRESS)
+  args = parser.parse_args()
+  if args.env_param is None:
+    args.env_param = ["num_legs=4"] if args.env == "pro_ant_run" else []
+  env_params(args.env_param)  # bad pairs fail here, before any process starts
+  for name in ("seeds", "chunks", "iterations"):
+    if getattr(args, name) < 1:
+      parser.error(f"--{name} must be at least 1, got {getattr(args, name)}")
+  if args.child_devices is not None:
+    print(json.dumps(measure(args, args.child_devices)), flush=True)
+    return
+
+  gpu = shutil.which("nvidia-smi") is not None
+  rows = []
+  for k in device_counts(args.devices):
+    env = dict(os.environ)
+    if gpu:
+      env["CUDA_VISIBLE_DEVICES"] = ",".join(str(i) for i in range(k))
+    else:
+      env["XLA_FLAGS"] = (f"{env.get('XLA_FLAGS', '')} "
+                          f"--xla_force_host_platform_device_count={k}").strip()
+    child = subprocess.run([sys.executable, os.path.abspath(__file__), *sys.argv[1:], CHILD,
+                            str(k)], env=env, capture_output=True, text=True)
+    if child.returncode:
+      sys.exit(f"device_scaling: the run on {k} devices failed:\n{child.stderr[-3000:]}")
+    row = json.loads(child.stdout.strip().splitlines()[-1])
+    row["speedup"] = row["steps_per_s"] / rows[0]["steps_per_s"] if rows else 1.0
+    rows.append(row)
+    print(json.dumps(row), flush=True)
+  common.print_table(
+      f"; {' '.join([args.env, *args.env_param])}, {args.seeds} seeds vmapped, "
+      f"{args.chunks} chunks of {args.iterations} iterations", rows,
+      [("devices", "devices", ""), ("device", "device", ""), ("env steps per seed", "env_steps",
+       ",.0f"), ("compile s", "compile_s", ".1f"), ("env steps/s per seed", "steps_per_s", ",.0f"),
+       ("speed-up", "speedup", ".2f")])
+
+
+if __name__ == "__main__":
+  main()
