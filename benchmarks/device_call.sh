@@ -28,10 +28,11 @@
 #    packed: nothing in it resumes); calls side by side send their parts in turn
 #    ($STAGE_ROOT/blx-send.lock), each counting what the other left in $OUT; `carry.py park
 #    FILES_AT/NAME.tar.part_*` on the CPU machine keeps the last call's pack for the next session.
-#    A run the call left as it found it (a finished run, whose command only reports) is not
-#    packed again: its last pack, carried here or sent by an earlier call, holds it already, and
-#    sending it anew would take the room of another arm's parts; only parts an earlier call left
-#    staged are sent.
+#    A run the call left as it found it (a finished run, whose command only reports; a command
+#    that failed before its first chunk ended, which changed only the run's provenance.json) is
+#    not packed again: its last pack, carried here or sent by an earlier call, holds it already,
+#    and sending it anew would take the room of another arm's parts, or of a later call's on the
+#    same run; only parts an earlier call left staged are sent.
 #    Parts that do not fit the call's return (8 files, 64 MiB) stay in /tmp/stage-NAME, and
 #    `send` says so: a call of `python3 benchmarks/carry.py send /tmp/stage-NAME $OUT` alone
 #    brings them, before the next call packs the run anew.
@@ -117,10 +118,13 @@ send_stage() {
   rmdir "$send_lock" 2>/dev/null
 }
 
-# What RUN_DIR holds: every file's path and content, as one digest ("" where there is none).
+# What RUN_DIR holds: every file's path and content, as one digest ("" where there is none);
+# provenance.json left out: a process that trained nothing (one that failed before its first chunk
+# ended) still records there that it ran, and its run is not worth the room of a pack.
 fingerprint() {
   [ -d "$run_dir" ] || return 0
-  (cd "$run_dir" && find . -type f -print0 | LC_ALL=C sort -z | xargs -0 -r md5sum | md5sum)
+  (cd "$run_dir" && find . -type f ! -name provenance.json -print0 | LC_ALL=C sort -z \
+    | xargs -0 -r md5sum | md5sum)
 }
 
 # 3. Train until the deadline.

@@ -509,6 +509,16 @@ def test_a_device_call_that_leaves_its_run_as_it_found_it_sends_only_parts_left_
   assert (tmp_path / "home" / "summary.md").read_text() == "the same"
   assert (tmp_path / "home" / "mimax" / "objective=diayn" / "metrics.csv").exists()
 
+  # A command that fails before its first chunk ends changes only the run's provenance.json,
+  # where it records that it ran: that is not packed again either.
+  failed = "open('runs/hc/provenance.json', 'a').write('a segment'); raise SystemExit(1)"
+  done = _device_call(device, tmp_path / "out_failed", "hc", "runs/hc", 60, sys.executable, "-c",
+                      failed)
+  assert done.returncode == 1
+  log = (tmp_path / "out_failed" / "hc.log").read_text()
+  assert "as this call found it: not packed again" in log
+  assert not list((tmp_path / "out_failed").glob("hc.tar.part_*"))
+
   # A command that changes the run, if only by one file, is packed and sent anew.
   done = _device_call(device, tmp_path / "out3", "hc", "runs/hc", 60, sys.executable, "-c",
                       "open('runs/hc/summary.md', 'w').write('changed')")
