@@ -1,7 +1,8 @@
 """benchmarks/gait_search.py: gaits for any number of motors, the swing score is the RMS distance
 from the target speed, the drift reads the last 2.5 s of constant actions, held poses are scored by
 the rows' H(s) protocol, blx's halfcheetah comes to rest under constant actions (Brax v1's does
-not), and bad input is refused by name."""
+not), the procedural ant is searched at its own control step and ends upside down, and bad input
+is refused by name."""
 
 import json
 import sys
@@ -101,6 +102,20 @@ def test_blx_halfcheetah_comes_to_rest_under_constant_actions():
   assert quiet.shape == (2, 40 - gait_search.WARM, 1) and np.abs(noisy - quiet).max() > 0.05
 
 
+def test_the_procedural_ant_is_searched_at_its_own_control_step_and_ends_upside_down():
+  rollout, motors = gait_search.blx_rollout("pro_ant_run", None, cut=True,
+                                            env_params={"num_legs": 3})
+  assert motors == 6   # a hip and a knee per leg
+  standing = np.zeros((1, 3 * motors + 1))   # amplitude 0, bias 0: every action 0
+  velocities, speed, alive = rollout(standing)
+  # 6 s at 0.02 s a control step, the first second a warm-up: 250 steps recorded (at the ant's
+  # 0.05 s the same episode is 100)
+  assert velocities.shape == (1, 250, 2)
+  assert alive[0] and speed[0] < 0.05
+  assert gait_search.upside_down(np.array([0.0, 1.0, 0.0, 0.0]))   # turned about x by pi
+  assert not gait_search.upside_down(np.array([np.cos(0.6), np.sin(0.6), 0.0, 0.0]))  # 1.2 rad
+
+
 @pytest.mark.parametrize("argv, message", [
     (["--sim", "blx", "--score", "swing"], "--target is required by --score swing"),
     (["--sim", "blx", "--target", "1.5"], "--target is required by --score swing"),
@@ -119,6 +134,12 @@ def test_blx_halfcheetah_comes_to_rest_under_constant_actions():
     (["--sim", "blx", "--body", "halfcheetah", "--held", "8"], "--held needs it"),
     (["--sim", "blx", "--body", "halfcheetah", "--noise", "0.1"], "--noise (a std >= 0) goes"),
     (["--sim", "blx", "--body", "halfcheetah", "--held", "8", "--noise", "-1"], "a std >= 0"),
+    (["--sim", "brax", "--brax-config", "x.txt", "--env-param", "num_legs=3"], "--sim blx only"),
+    (["--sim", "brax", "--brax-config", "x.txt", "--body", "pro_ant_run"], "--sim blx only"),
+    (["--sim", "blx", "--body", "pro_ant_run", "--drift", "8"], "--body ant or halfcheetah"),
+    (["--sim", "blx", "--body", "pro_ant_run", "--env-param", "num_legs"], "takes KEY=VALUE"),
+    (["--sim", "blx", "--body", "pro_ant_run", "--env-param", "legs=3"],
+     "--body pro_ant_run with --env-param ['legs=3']"),
     (["--plot", "a.json", "b.json"], "--plot takes the PNG to write"),
     (["--plot", "a.png", "missing.json"], "--plot: [Errno 2]"),
 ])
@@ -141,6 +162,8 @@ def test_runs_are_described_by_their_physics():
   blx = dict(sim="blx", body="halfcheetah", edits='{"global_options.timestep": 0.00625, '
              '"global_options.substeps": 8}')
   assert gait_search.describe(blx) == "blx halfcheetah, 8 x 6.25 ms"
+  assert gait_search.describe(dict(sim="blx", body="pro_ant_run", env_param=["num_legs=3"])) == (
+      "blx pro_ant_run num_legs=3, its default step")
 
 
 def test_the_study_plot_takes_only_this_scripts_runs(tmp_path):
