@@ -10,6 +10,7 @@ body (C MuJoCo, float64, the env's own MJCF and torque cut) or on Brax v1's phys
     python benchmarks/gait_search.py --sim brax --body halfcheetah --drift 96 \\
         --brax-config halfcheetah_v006.txt
     python benchmarks/gait_search.py --sim blx --body pro_ant_run --env-param num_legs=3
+    python benchmarks/gait_search.py --sim brax --body pro_ant_run --env-param num_legs=3
 
 A gait is a_j(t) = clip(amp_j sin(2 pi f t + phase_j) + bias_j, -1, 1) for the body's n motors
 (3n + 1 numbers: 25 for the ant, 19 for the halfcheetah). Each episode runs 6 s, 120 control
@@ -51,7 +52,11 @@ paper) with ``dynamics_mode: "legacy_spring"``: Brax 0.12.1's ``brax.v1``, with 
 the fact sheet lists (``shared/reference/brax-v1-bodies.md`` section 10). legacy_spring multiplies
 the two colliders' friction, so the global friction is replaced by its square root (the cheetah's
 0.4 stays 0.4 per contact; the ant's 1 is unchanged). What still differs from the paper's physics
-is v0.0.6's orientation update at twice the angular velocity, fixed in v0.0.7.
+is v0.0.6's orientation update at twice the angular velocity, fixed in v0.0.7. ``--sim brax --body
+pro_ant_run`` needs no config: it builds the paper's procedural ant of ``--env-param num_legs=N``
+legs (``brax_pro_ant_config``: Braxlines' pro_ant at 2821f78 on its composer's ground and global
+options, at the run's 0.02 s control step of 16 substeps), so one search compares leg counts on
+the paper's physics as ``--sim blx`` does on blx's.
 """
 
 from __future__ import annotations
@@ -214,9 +219,62 @@ def parse_brax_sets(pairs: list[str]) -> dict[str, float]:
   return out
 
 
-def brax_rollout(config_path: str, body: str, sets: dict[str, float] | None = None):
+def brax_pro_ant_config(num_legs: int, strength: float = 300.0) -> str:
+  """A Brax v1 config (text format) of ``pro_ant_run``'s world as the paper ran it: the procedural
+  ant of ``num_legs`` legs on the composer's ground, the composer's global options with the run's
+  0.02 s control step of 16 substeps. The torso: a 10 kg capsule of radius 0.25 and length 0.5
+  with one end cap. Leg i at theta = 2 pi i / N: a thigh capsule (r 0.08, length 0.443) on a hip
+  0.301 m out along theta, a hinge of +-30 deg about the vertical; a shin capsule (r 0.08, length
+  0.726, one end cap) on a knee across the leg, 30..70 deg; every link 1 kg with inertia 1; every
+  joint of stiffness 5000 and angular damping 35, driven by a torque actuator of ``strength``.
+  Every body of the ant collides with the ground, and nothing else collides."""
+  # the leg's lengths as blx's pro_ant (the same body as MJCF) takes them
+  from blx.envs.brax_bodies import MAX_LEGS, MIN_LEGS, PRO_ANT_RADIUS, PRO_ANT_SHIN_LENGTH
+  from blx.envs.brax_bodies import PRO_ANT_THIGH_LENGTH as PRO_ANT_THIGH
+  if not isinstance(num_legs, int) or isinstance(num_legs, bool) or not (
+      MIN_LEGS <= num_legs <= MAX_LEGS):
+    raise ValueError(f"num_legs={num_legs!r}: the procedural ant takes {MIN_LEGS}..{MAX_LEGS} legs")
+  lines = ['bodies { name: "torso" colliders { capsule { radius: 0.25 length: 0.5 end: 1 } }',
+           '  inertia { x: 1.0 y: 1.0 z: 1.0 } mass: 10 }']
+  colliders = ["torso"]
+  hip = PRO_ANT_THIGH / 2 + PRO_ANT_RADIUS   # blx's PRO_ANT_HIP
+  for i in range(num_legs):
+    theta = 2 * np.pi * i / num_legs
+    thigh, shin = f"thigh_{i}", f"shin_{i}"
+    lines += [
+        f'bodies {{ name: "{thigh}" colliders {{ rotation {{ x: 90 y: -90 }} capsule {{ radius: '
+        f'{PRO_ANT_RADIUS} length: {PRO_ANT_THIGH} }} }}',
+        '  inertia { x: 1.0 y: 1.0 z: 1.0 } mass: 1 }',
+        f'bodies {{ name: "{shin}" colliders {{ rotation {{ x: 90 y: -90 }} capsule {{ radius: '
+        f'{PRO_ANT_RADIUS} length: {PRO_ANT_SHIN_LENGTH} end: -1 }} }}',
+        '  inertia { x: 1.0 y: 1.0 z: 1.0 } mass: 1 }',
+        f'joints {{ name: "hip_{i}" parent: "torso" child: "{thigh}"',
+        f'  parent_offset {{ x: {float(hip * np.cos(theta))!r} y: {float(hip * np.sin(theta))!r} }} '
+        'child_offset { }',
+        '  stiffness: 5000.0 angular_damping: 35 angle_limit { min: -30.0 max: 30.0 }',
+        f'  rotation {{ y: -90 }} reference_rotation {{ z: {float(np.degrees(theta))!r} }} }}',
+        f'joints {{ name: "knee_{i}" parent: "{thigh}" child: "{shin}"',
+        f'  parent_offset {{ x: {PRO_ANT_THIGH / 2 - PRO_ANT_RADIUS!r} }} '
+        f'child_offset {{ x: {-PRO_ANT_SHIN_LENGTH / 2 + PRO_ANT_RADIUS!r} }}',
+        '  stiffness: 5000.0 angular_damping: 35 rotation { z: 90 } '
+        'angle_limit { min: 30.0 max: 70.0 } }']
+    lines += [f'actuators {{ name: "{j}_{i}" joint: "{j}_{i}" strength: {float(strength)!r} '
+              'torque { } }' for j in ("hip", "knee")]
+    colliders += [thigh, shin]
+  lines += ['bodies { name: "Ground" colliders { plane { } } inertia { x: 1.0 y: 1.0 z: 1.0 }',
+            '  mass: 1 frozen { all: true } }']
+  lines += [f'collide_include {{ first: "{c}" second: "Ground" }}' for c in colliders]
+  lines += ["friction: 1.0", "gravity { z: -9.8 }", "angular_damping: -0.05",
+            "baumgarte_erp: 0.1", "dt: 0.02", "substeps: 16"]
+  return "\n".join(lines) + "\n"
+
+
+def brax_rollout(config_path: str | None, body: str, sets: dict[str, float] | None = None,
+                 text: str | None = None):
   """``params -> (velocities, speed, alive)`` on Brax v1's physics (brax 0.12.1, legacy_spring),
-  with the config's top-level ``sets`` (e.g. ``{"substeps": 64}``) replaced first."""
+  from the config in text format at ``config_path`` (or ``text`` itself), with its top-level
+  ``sets`` (e.g. ``{"substeps": 64}``) replaced first. At a control step ``dt`` other than 0.05 s,
+  an episode and its warm-up are as many steps as make the same seconds, as on blx."""
   import jax
   import jax.numpy as jnp
   from jax._src import core as jax_core
@@ -227,40 +285,49 @@ def brax_rollout(config_path: str, body: str, sets: dict[str, float] | None = No
   from brax import v1 as brax
   from google.protobuf import text_format
 
-  with open(config_path) as f:
-    text = f.read() + '\ndynamics_mode: "legacy_spring"\n'
-  config = text_format.Parse(text, brax.Config())
+  if text is None:
+    with open(config_path) as f:
+      text = f.read()
+  config = text_format.Parse(text + '\ndynamics_mode: "legacy_spring"\n', brax.Config())
   for field, value in (sets or {}).items():
     setattr(config, field, type(getattr(config, field))(value))
   config.friction = float(np.sqrt(config.friction))   # legacy_spring multiplies the pair's
   system = brax.System(config)
   qp0 = system.default_qp()
-  n, dims = system.num_actuators, (2 if body == "ant" else 1)
+  n, dims = system.num_actuators, (1 if body == "halfcheetah" else 2)
+  dt = float(config.dt)
+  per_step = DT / dt
 
-  def one(params, noise):
+  def one(params, noise, warm):
     def step(carry, xs):
       t, eps = xs
       qp, alive, start = carry
-      action = jnp.clip(gait_actions(params, t, jnp) + eps, -1, 1)
+      action = jnp.clip(gait_actions(params, t, jnp, dt=dt) + eps, -1, 1)
       qp, _ = system.step(qp, action)
       alive &= jnp.all(jnp.isfinite(qp.pos[0]))
-      if body == "ant":
+      if body != "halfcheetah":
         alive &= (qp.pos[0, 2] >= 0.2) & (qp.pos[0, 2] <= 1.0)
-      start = jnp.where(t == WARM - 1, qp.pos[0, :dims], start)
+      if body == "pro_ant_run":
+        alive &= ~upside_down(qp.rot[0])
+      start = jnp.where(t == warm - 1, qp.pos[0, :dims], start)
       return (qp, alive, start), qp.vel[0, :dims]
 
     steps = noise.shape[0]
     (qp, alive, start), vel = jax.lax.scan(step, (qp0, jnp.array(True), qp0.pos[0, :dims]),
                                            (jnp.arange(steps), noise))
-    speed = jnp.linalg.norm(qp.pos[0, :dims] - start) / ((steps - WARM) * DT)
-    return vel[WARM:], speed, alive
+    speed = jnp.linalg.norm(qp.pos[0, :dims] - start) / ((steps - warm) * dt)
+    return vel[warm:], speed, alive
 
-  batched = jax.jit(jax.vmap(one, in_axes=(0, 1)))   # noise [steps, P, n]
+  @functools.lru_cache(maxsize=None)
+  def batched(warm):  # noise [steps, P, n]; the warm-up's length fixes the velocities' shape
+    return jax.jit(jax.vmap(functools.partial(one, warm=warm), in_axes=(0, 1)))
 
   def rollout(params, steps=STEPS, noise=None):
+    steps, warm = int(round(steps * per_step)), int(round(WARM * per_step))
     if noise is None:
       noise = np.zeros((steps, len(params), n))
-    vel, speed, alive = batched(jnp.asarray(params, jnp.float32), jnp.asarray(noise, jnp.float32))
+    vel, speed, alive = batched(warm)(jnp.asarray(params, jnp.float32),
+                                      jnp.asarray(noise, jnp.float32))
     return (np.asarray(vel, np.float64), np.asarray(speed, np.float64),
             np.asarray(alive, bool))
 
@@ -314,7 +381,9 @@ def speed_profile(velocities: np.ndarray) -> dict:
 
 
 # Brax v0.0.6's own step per body (fact sheet section 2), for labels of runs that kept it
-V006_STEP = {"ant": (10, 5.0), "halfcheetah": (16, 3.125)}
+# the paper's physics steps per control step (substeps, ms), and its control steps (s)
+V006_STEP = {"ant": (10, 5.0), "halfcheetah": (16, 3.125), "pro_ant_run": (16, 1.25)}
+CONTROL_STEP = {"ant": 0.05, "halfcheetah": 0.05, "pro_ant_run": 0.02}
 
 
 def describe(args: dict) -> str:
@@ -323,9 +392,9 @@ def describe(args: dict) -> str:
   if args["sim"] == "brax":
     sets = parse_brax_sets(args.get("brax_set") or [])
     substeps = int(sets.pop("substeps", V006_STEP[body][0]))
-    dt = sets.pop("dt", 0.05)   # v0.0.6's control step for both bodies
+    dt = sets.pop("dt", CONTROL_STEP[body])
     h = 1000 * dt / substeps
-    text = f"Brax v1 {body}, {substeps} x {h:.4g} ms"
+    text = f"Brax v1 {' '.join([body, *(args.get('env_param') or [])])}, {substeps} x {h:.4g} ms"
     if (substeps, h) == V006_STEP[body] and not sets:
       text += " (the paper's)"
     return text + "".join(f", {k} {v:g}" for k, v in sets.items())
@@ -447,7 +516,7 @@ def main():
   parser.add_argument("--edits", default=None, metavar="JSON", help="blx: edits of the body's desc")
   parser.add_argument("--env-param", action="append", default=[], metavar="KEY=VALUE",
                       help="blx: a parameter of the body's env (repeatable), e.g. num_legs=3 for "
-                           "pro_ant_run")
+                           "pro_ant_run; brax: num_legs of pro_ant_run alone")
   parser.add_argument("--no-cut", action="store_true", help="blx: no torque cut (diagnostic only)")
   parser.add_argument("--brax-config", default=None, help="brax: a Brax v1 config in text format")
   parser.add_argument("--brax-set", action="append", default=[], metavar="FIELD=VALUE",
@@ -486,8 +555,11 @@ def main():
     return
   if args.sim is None:
     parser.error("--sim is required (blx or brax) unless --plot")
-  if args.sim == "brax" and not args.brax_config:
-    parser.error("--sim brax needs --brax-config")
+  if args.sim == "brax" and args.body == "pro_ant_run" and args.brax_config:
+    parser.error("--sim brax --body pro_ant_run builds the paper's procedural ant itself "
+                 "(--env-param num_legs=N): give no --brax-config")
+  if args.sim == "brax" and args.body != "pro_ant_run" and not args.brax_config:
+    parser.error(f"--sim brax --body {args.body} needs --brax-config")
   if args.sim == "blx" and args.brax_config:
     parser.error("--brax-config is for --sim brax; --sim blx builds the body from blx's registry")
   if (args.score == "swing") != (args.target is not None):
@@ -508,8 +580,9 @@ def main():
     parser.error("--noise (a std >= 0) goes with --held, and --held needs it")
   if args.brax_set and args.sim != "brax":
     parser.error("--brax-set edits a Brax config: --sim brax only (blx takes --edits)")
-  if args.sim == "brax" and (args.env_param or args.body == "pro_ant_run"):
-    parser.error("--env-param and --body pro_ant_run build a blx env: --sim blx only")
+  if args.sim == "brax" and args.env_param and args.body != "pro_ant_run":
+    parser.error("--env-param sets a parameter of blx's env, or the legs of --sim brax --body "
+                 "pro_ant_run")
   if args.drift is not None and args.body == "pro_ant_run":
     parser.error("--drift reads the last 2.5 s at a control step of 0.05 s: --body ant or "
                  "halfcheetah")
@@ -526,7 +599,16 @@ def main():
     sets = parse_brax_sets(args.brax_set)
   except ValueError as err:
     parser.error(str(err))
-  if args.sim == "brax":
+  if args.sim == "brax" and args.body == "pro_ant_run":
+    if set(env_params) - {"num_legs"}:
+      parser.error(f"--sim brax --body pro_ant_run takes --env-param num_legs=N alone, got "
+                   f"{sorted(env_params)}")
+    try:
+      text = brax_pro_ant_config(env_params.get("num_legs", 4))
+    except ValueError as err:
+      parser.error(f"--env-param {err}")
+    rollout, motors = brax_rollout(None, args.body, sets, text=text)
+  elif args.sim == "brax":
     rollout, motors = brax_rollout(args.brax_config, args.body, sets)
   else:
     try:

@@ -74,9 +74,11 @@ PRO_ANT_STRENGTH = 300.0
 # hip, the hip 0.30142 m out from the torso's centre; the knee 0.14142 m past the hip; the shin's
 # centre of mass 0.28284 m past the knee and its foot sphere (the shin capsule's outer end) 0.28284
 # m further.
-PRO_ANT_HIP = 0.4428427219390869 / 2 + 0.08
-PRO_ANT_KNEE = 0.4428427219390869 / 2 - 0.08
-PRO_ANT_SHIN = 0.7256854176521301 / 2 - 0.08
+PRO_ANT_THIGH_LENGTH, PRO_ANT_SHIN_LENGTH = 0.4428427219390869, 0.7256854176521301
+PRO_ANT_RADIUS = 0.08
+PRO_ANT_HIP = PRO_ANT_THIGH_LENGTH / 2 + PRO_ANT_RADIUS
+PRO_ANT_KNEE = PRO_ANT_THIGH_LENGTH / 2 - PRO_ANT_RADIUS
+PRO_ANT_SHIN = PRO_ANT_SHIN_LENGTH / 2 - PRO_ANT_RADIUS
 ANT_LIMIT = (0.01, 1.0)   # solreflimit: 100 rad/s (Brax's limit_strength 5000 on inertia-1 links), damped
 _UNIT = dict(diaginertia=(1.0, 1.0, 1.0))
 # Brax's ant steps 0.05 s as 10 substeps of 5 ms; the registered ant envs do the same. The Newton

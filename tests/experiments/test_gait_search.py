@@ -1,8 +1,8 @@
 """benchmarks/gait_search.py: gaits for any number of motors, the swing score is the RMS distance
 from the target speed, the drift reads the last 2.5 s of constant actions, held poses are scored by
 the rows' H(s) protocol, blx's halfcheetah comes to rest under constant actions (Brax v1's does
-not), the procedural ant is searched at its own control step and ends upside down, and bad input
-is refused by name."""
+not), the procedural ant is searched at its own control step and ends upside down, the paper's
+procedural ant is written as a Brax v1 config with blx's hips, and bad input is refused by name."""
 
 import json
 import sys
@@ -116,6 +116,32 @@ def test_the_procedural_ant_is_searched_at_its_own_control_step_and_ends_upside_
   assert not gait_search.upside_down(np.array([np.cos(0.6), np.sin(0.6), 0.0, 0.0]))  # 1.2 rad
 
 
+def test_the_papers_procedural_ant_is_written_as_a_brax_config_with_blx_s_hips():
+  import re
+
+  from blx import envs
+  text = gait_search.brax_pro_ant_config(3)
+  assert text.count("bodies {") == 1 + 2 * 3 + 1   # torso, a thigh and a shin a leg, the ground
+  assert text.count("joints {") == 6 and text.count("actuators {") == 6
+  assert text.count("strength: 300.0") == 6
+  # every ant body collides with the ground, and nothing else collides
+  assert re.findall(r'collide_include \{ first: "(\w+)" second: "Ground" \}', text) == [
+      "torso", "thigh_0", "shin_0", "thigh_1", "shin_1", "thigh_2", "shin_2"]
+  assert "dt: 0.02" in text and "substeps: 16" in text and "friction: 1.0" in text
+  hips = [(float(x), float(y)) for x, y in re.findall(
+      r"parent_offset \{ x: ([-\d.e]+) y: ([-\d.e]+) \}", text)]
+  turns = [float(z) for z in re.findall(r"reference_rotation \{ z: ([-\d.e]+) \}", text)]
+  np.testing.assert_allclose(turns, [0.0, 120.0, 240.0])
+  # the hips where blx's pro_ant (MJCF) puts its thighs: the same body, built twice
+  model = envs.unwrap(envs.create("pro_ant_run", num_legs=3)).mj_model
+  thighs = [model.body(f"agent1/thigh_{i}").pos[:2] for i in (1, 2, 3)]
+  np.testing.assert_allclose(hips, thighs, atol=1e-6)  # the MJCF keeps 6 decimals
+  assert gait_search.brax_pro_ant_config(4, strength=350.0).count("strength: 350.0") == 8
+  for bad in (1, 17, 3.0, True):
+    with pytest.raises(ValueError, match=r"takes 2\.\.16 legs"):
+      gait_search.brax_pro_ant_config(bad)
+
+
 @pytest.mark.parametrize("argv, message", [
     (["--sim", "blx", "--score", "swing"], "--target is required by --score swing"),
     (["--sim", "blx", "--target", "1.5"], "--target is required by --score swing"),
@@ -124,7 +150,12 @@ def test_the_procedural_ant_is_searched_at_its_own_control_step_and_ends_upside_
     (["--sim", "blx", "--drift", "8", "--score", "swing", "--target", "1"], "--drift takes"),
     (["--sim", "blx", "--brax-set", "substeps=64"], "--sim brax only"),
     (["--sim", "blx", "--brax-config", "x.txt"], "--brax-config is for --sim brax"),
-    (["--sim", "brax"], "--sim brax needs --brax-config"),
+    (["--sim", "brax"], "--sim brax --body ant needs --brax-config"),
+    (["--sim", "brax", "--body", "pro_ant_run", "--brax-config", "x.txt"], "give no --brax-config"),
+    (["--sim", "brax", "--body", "pro_ant_run", "--env-param", "step=blx"],
+     "takes --env-param num_legs=N alone, got ['step']"),
+    (["--sim", "brax", "--body", "pro_ant_run", "--env-param", "num_legs=1"],
+     "--env-param num_legs=1: the procedural ant takes 2..16 legs"),
     (["--sim", "brax", "--brax-config", "x.txt", "--no-cut"], "--sim blx only"),
     (["--sim", "brax", "--brax-config", "x.txt", "--brax-set", "k=1"], "the field must be one of"),
     (["--sim", "brax", "--brax-config", "x.txt", "--brax-set", "dt=a"], "must be a number"),
@@ -134,8 +165,8 @@ def test_the_procedural_ant_is_searched_at_its_own_control_step_and_ends_upside_
     (["--sim", "blx", "--body", "halfcheetah", "--held", "8"], "--held needs it"),
     (["--sim", "blx", "--body", "halfcheetah", "--noise", "0.1"], "--noise (a std >= 0) goes"),
     (["--sim", "blx", "--body", "halfcheetah", "--held", "8", "--noise", "-1"], "a std >= 0"),
-    (["--sim", "brax", "--brax-config", "x.txt", "--env-param", "num_legs=3"], "--sim blx only"),
-    (["--sim", "brax", "--brax-config", "x.txt", "--body", "pro_ant_run"], "--sim blx only"),
+    (["--sim", "brax", "--brax-config", "x.txt", "--env-param", "num_legs=3"],
+     "or the legs of --sim brax --body pro_ant_run"),
     (["--sim", "blx", "--body", "pro_ant_run", "--drift", "8"], "--body ant or halfcheetah"),
     (["--sim", "blx", "--body", "pro_ant_run", "--env-param", "num_legs"], "takes KEY=VALUE"),
     (["--sim", "blx", "--body", "pro_ant_run", "--env-param", "legs=3"],
@@ -159,6 +190,8 @@ def test_runs_are_described_by_their_physics():
       "Brax v1 halfcheetah, 16 x 3.125 ms, baumgarte_erp 0.1")
   assert gait_search.describe(dict(sim="brax", body="ant")) == (
       "Brax v1 ant, 10 x 5 ms (the paper's)")
+  assert gait_search.describe(dict(sim="brax", body="pro_ant_run", env_param=["num_legs=3"])) == (
+      "Brax v1 pro_ant_run num_legs=3, 16 x 1.25 ms (the paper's)")
   blx = dict(sim="blx", body="halfcheetah", edits='{"global_options.timestep": 0.00625, '
              '"global_options.substeps": 8}')
   assert gait_search.describe(blx) == "blx halfcheetah, 8 x 6.25 ms"

@@ -1,0 +1,102 @@
+"""benchmarks/root_velocity.py: which way a run's body moves, in the world and in its own frame,
+on a stand-in env whose episodes are known."""
+
+import math
+from types import SimpleNamespace
+from typing import NamedTuple
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+from blx import envs
+from blx.envs.env import State
+from tests.experiments import load_benchmark
+
+root_velocity = load_benchmark("root_velocity")
+
+
+class _Data(NamedTuple):
+  xmat: jax.Array  # [bodies, 3, 3], as MJX's
+  t: jax.Array
+
+
+class _Runner:
+  """An episode draws its body's heading at reset (uniform) and keeps it; the body runs at 2 m/s
+  60 degrees to the left of its own x axis, so its world direction is the heading + 60 degrees.
+  Reward 1.5 a step. Its observation: [yaw, vx, vy]."""
+
+  observation_size, action_size = 3, 1
+  named_indices = {"vel_xy": (1, 2)}
+
+  def obs_indices(self, name):
+    return self.named_indices[name]
+
+  def _fields(self, yaw, t):
+    c, s = jnp.cos(yaw), jnp.sin(yaw)
+    xmat = jnp.zeros((2, 3, 3)).at[1].set(jnp.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]]))
+    v = 2.0 * jnp.stack([jnp.cos(yaw + math.pi / 3), jnp.sin(yaw + math.pi / 3)])
+    return dict(data=_Data(xmat=xmat, t=t), obs=jnp.concatenate([yaw[None], v]),
+                reward=jnp.float32(1.5))
+
+  def reset(self, key):
+    yaw = jax.random.uniform(key, (), minval=-math.pi, maxval=math.pi)
+    return State(**self._fields(yaw, jnp.zeros((), jnp.int32)), done=jnp.zeros(()))
+
+  def step(self, state, action):
+    return state.replace(**self._fields(state.obs[0], state.data.t + 1))
+
+
+def test_the_body_frame_direction_is_found_whatever_way_each_episode_faces():
+  run = SimpleNamespace(env=envs.episode(_Runner(), 8),
+                        policy=lambda params, obs, z=None, key=None, deterministic=False:
+                        jnp.zeros(obs.shape[:-1] + (1,)))
+  arrays = jax.jit(lambda k: root_velocity.episodes(run, {}, k, 30, False))(jax.random.PRNGKey(0))
+  velocity, x_axis, up, reward = (np.asarray(a) for a in arrays)
+  assert velocity.shape == (30, 4, 2) and x_axis.shape == (30, 4, 2)  # the scored half of 8
+  read = root_velocity.read_seed(velocity, x_axis, up, reward)
+  assert read["body_direction_deg"] == pytest.approx(60.0, abs=1e-3)
+  assert read["body_velocity"] == pytest.approx([1.0, math.sqrt(3.0)], abs=1e-4)
+  assert read["speed"] == pytest.approx(2.0, abs=1e-5)
+  # 30 headings drawn at random: the world velocities point every way, so their mean is short
+  assert read["steadiness"] < 0.5
+  assert read["reward"] == pytest.approx(1.5) and read["upside_down"] == 0.0
+
+
+def test_a_steady_run_in_the_world_and_its_heading():
+  t = 50
+  yaw = np.full((2, t), math.radians(-30.0))
+  x_axis = np.stack([np.cos(yaw), np.sin(yaw)], axis=-1)
+  velocity = np.broadcast_to([3.0, 0.0], (2, t, 2))  # along +x, the body turned 30 deg right
+  up = np.concatenate([np.ones((1, t)), -np.ones((1, t))])  # one episode on its back
+  read = root_velocity.read_seed(velocity, x_axis, up, np.zeros((2, t)))
+  assert read["velocity"] == [3.0, 0.0] and read["steadiness"] == pytest.approx(1.0)
+  assert read["heading_deg"] == pytest.approx(-30.0)
+  assert read["body_direction_deg"] == pytest.approx(30.0)  # +x is 30 deg left of its nose
+  assert read["upside_down"] == 0.5
+
+
+def test_the_summary_averages_angles_as_angles():
+  seeds = [dict(speed=1.0, body_direction_deg=170.0, heading_deg=0.0, velocity=[1.0, 0.0]),
+           dict(speed=3.0, body_direction_deg=-170.0, heading_deg=0.0, velocity=[3.0, 2.0])]
+  out = root_velocity.summary(seeds)
+  assert abs(out["body_direction_deg"]["mean"]) == pytest.approx(180.0)  # not 0
+  assert out["body_direction_deg"]["std"] == pytest.approx(
+      math.degrees(math.sqrt(-2 * math.log(math.cos(math.radians(10.0))))))
+  assert out["heading_deg"] == {"mean": 0.0, "std": 0.0}
+  assert out["speed"] == {"mean": 2.0, "std": 1.0}
+  assert out["velocity"] == {"mean": [2.0, 1.0], "std": [1.0, 1.0]}
+
+
+def test_the_command_refuses_an_env_without_a_planar_root_velocity(monkeypatch, capsys, tmp_path):
+  run = SimpleNamespace(spec=SimpleNamespace(seeds=(0,), env="cheetah_like"),
+                        env=SimpleNamespace(named_indices={"vel_x": (3,)}))
+  monkeypatch.setattr(root_velocity.common.runs, "load_run", lambda directory: run)
+  for argv, message in (([str(tmp_path)], "has no root xy velocity in its observation (its "
+                         "named sets: vel_x)"),
+                        ([str(tmp_path), "--episodes", "0"], "--episodes 0: give 1 or more")):
+    monkeypatch.setattr("sys.argv", ["root_velocity.py", *argv])
+    with pytest.raises(SystemExit):
+      root_velocity.main()
+    assert message in capsys.readouterr().err
