@@ -11,6 +11,7 @@ body (C MuJoCo, float64, the env's own MJCF and torque cut) or on Brax v1's phys
         --brax-config halfcheetah_v006.txt
     python benchmarks/gait_search.py --sim blx --body pro_ant_run --env-param num_legs=3
     python benchmarks/gait_search.py --sim brax --body pro_ant_run --env-param num_legs=3
+    python benchmarks/gait_search.py --plot-legs legs.png SEARCH.json ... [ROOT_VELOCITY.json ...]
 
 A gait is a_j(t) = clip(amp_j sin(2 pi f t + phase_j) + bias_j, -1, 1) for the body's n motors
 (3n + 1 numbers: 25 for the ant, 19 for the halfcheetah). Each episode runs 6 s, 120 control
@@ -425,6 +426,74 @@ def _plot_held(ax, held: list[dict]) -> None:
   ax.grid(alpha=0.3)
 
 
+def _legs(args: dict) -> int:
+  """The leg count of a procedural-ant run's ``--env-param``s (4, the env's default, if none)."""
+  for pair in args.get("env_param") or []:
+    key, _, value = pair.partition("=")
+    if key == "num_legs":
+      return int(value)
+  return 4
+
+
+def plot_legs(paths: list[str], png: str) -> dict:
+  """How fast the procedural ant runs with each leg count, one figure: the speed searches of
+  ``--body pro_ant_run`` in ``paths`` (each search seed's elite mean, blx's and Brax v1's side by
+  side) and, where given, ``root_velocity.py`` JSONs of trained ``pro_ant_run`` runs (each seed's
+  mean speed), beside the 4 m/s that the run reward asks for. Returns the speeds drawn,
+  ``{(what, legs): [m/s, ...]}`` with ``what`` one of "blx", "Brax v1", "trained"."""
+  import matplotlib
+  matplotlib.use("Agg")
+  import matplotlib.pyplot as plt
+
+  groups = {}   # (what, legs) -> speeds
+  for path in paths:
+    with open(path) as f:
+      r = json.load(f)
+    if "seeds" in r and r.get("args", {}).get("body") == "pro_ant_run" and (
+        r["args"]["score"] == "speed"):
+      what = "Brax v1" if r["args"]["sim"] == "brax" else "blx"
+      speeds = [seed["elite_last"] for seed in r["seeds"].values()]
+      legs = _legs(r["args"])
+    elif r.get("env") == "pro_ant_run" and "per_seed" in r:
+      what = "trained"
+      speeds = [seed["speed"] for seed in r["per_seed"].values()]
+      legs = int(r.get("env_params", {}).get("num_legs", 4))
+    else:
+      raise ValueError(f"{path} is neither a speed search of --body pro_ant_run nor a "
+                       "root_velocity.py JSON of a pro_ant_run run")
+    groups.setdefault((what, legs), []).extend(speeds)
+  kinds = [k for k in ("blx", "Brax v1", "trained") if any(w == k for w, _ in groups)]
+  styles = {"blx": ("tab:blue", "open-loop gaits, blx (C MuJoCo, the env's MJCF)"),
+            "Brax v1": ("tab:red", "open-loop gaits, Brax v1 (brax 0.12.1, legacy_spring)"),
+            "trained": ("k", "trained policies (root_velocity.py, sampled actions)")}
+  legs = sorted({n for _, n in groups})
+  width = 0.8 / len(kinds)
+  fig, ax = plt.subplots(figsize=(7.5, 5))
+  for k, kind in enumerate(kinds):
+    color, label = styles[kind]
+    for x, n in enumerate(legs):
+      speeds = groups.get((kind, n))
+      if not speeds:
+        continue
+      pos = x - 0.4 + width * (k + 0.5)
+      ax.bar(pos, np.mean(speeds), width * 0.9, color=color, alpha=0.3,
+             label=label if x == min(i for i, m in enumerate(legs) if (kind, m) in groups)
+             else None)
+      ax.plot(np.full(len(speeds), pos), speeds, "o", color=color, ms=4)
+  ax.axhline(4.0, color="gray", ls="--", lw=1, label="the run reward's target speed (4 m/s)")
+  ax.set_xticks(range(len(legs)), [f"{n} legs" for n in legs])
+  ax.set_ylabel("planar speed of the torso, m/s")
+  ax.set_ylim(0, 4.6)
+  ax.set_title("pro_ant_run: how fast each leg count runs\n(bars: mean; dots: each search seed's "
+               "12 best gaits, or each trained seed)")
+  ax.legend(fontsize=8, loc="upper left")
+  ax.grid(alpha=0.3, axis="y")
+  fig.tight_layout()
+  fig.savefig(png, dpi=120)
+  plt.close(fig)
+  return groups
+
+
 def plot_study(paths: list[str], png: str, reference: str | None = None) -> None:
   """One figure of the JSONs ``paths`` this script wrote: the swing searches' elite RMS per target
   speed (left), the constant-action drifts (middle) and, if given, the held poses' H(s) (right).
@@ -538,6 +607,9 @@ def main():
                       help="--held: the std of the Gaussian action noise added every step")
   parser.add_argument("--plot", nargs="+", default=None, metavar=("PNG", "JSON"),
                       help="no run: draw the swing searches and drifts in the JSONs into PNG")
+  parser.add_argument("--plot-legs", nargs="+", default=None, metavar=("PNG", "JSON"),
+                      help="no run: draw the speed searches of --body pro_ant_run in the JSONs, "
+                           "and root_velocity.py JSONs of trained pro_ant_run runs, by leg count")
   parser.add_argument("--reference", default=None,
                       help="--plot: a goal_reaching.py JSON whose within-episode spread to draw")
   parser.add_argument("--seeds", type=int, default=4)
@@ -553,8 +625,17 @@ def main():
       parser.error(f"--plot: {err}")
     print(f"wrote {args.plot[0]}")
     return
+  if args.plot_legs is not None:
+    if len(args.plot_legs) < 2 or not args.plot_legs[0].endswith(".png"):
+      parser.error("--plot-legs takes the PNG to write, then one or more JSONs")
+    try:
+      plot_legs(args.plot_legs[1:], args.plot_legs[0])
+    except (OSError, KeyError, ValueError) as err:
+      parser.error(f"--plot-legs: {err}")
+    print(f"wrote {args.plot_legs[0]}")
+    return
   if args.sim is None:
-    parser.error("--sim is required (blx or brax) unless --plot")
+    parser.error("--sim is required (blx or brax) unless --plot or --plot-legs")
   if args.sim == "brax" and args.body == "pro_ant_run" and args.brax_config:
     parser.error("--sim brax --body pro_ant_run builds the paper's procedural ant itself "
                  "(--env-param num_legs=N): give no --brax-config")

@@ -107,8 +107,8 @@ def main():
   arrays = jax.jit(jax.vmap(lambda p, k: episodes(run, p, k, args.episodes, args.deterministic)))(
       params, keys)
   arrays = [np.asarray(a) for a in arrays]
-  result = {"run": args.run, "episodes": args.episodes, "deterministic": args.deterministic,
-            "per_seed": {}}
+  result = {"run": args.run, "env": run.spec.env, "env_params": run.spec.env_params or {},
+            "episodes": args.episodes, "deterministic": args.deterministic, "per_seed": {}}
   for i, position in enumerate(picked):
     seed = run.spec.seeds[position]
     read = read_seed(*(a[i] for a in arrays))

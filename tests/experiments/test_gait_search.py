@@ -160,7 +160,8 @@ def test_the_papers_procedural_ant_is_written_as_a_brax_config_with_blx_s_hips()
     (["--sim", "brax", "--brax-config", "x.txt", "--brax-set", "k=1"], "the field must be one of"),
     (["--sim", "brax", "--brax-config", "x.txt", "--brax-set", "dt=a"], "must be a number"),
     (["--sim", "blx", "--seeds", "0"], "--seeds and --iters must be at least 1"),
-    ([], "--sim is required (blx or brax) unless --plot"),
+    ([], "--sim is required (blx or brax) unless --plot or --plot-legs"),
+    (["--plot-legs", "a.json", "b.json"], "--plot-legs takes the PNG to write"),
     (["--sim", "blx", "--held", "8", "--noise", "0.1"], "--body halfcheetah"),
     (["--sim", "blx", "--body", "halfcheetah", "--held", "8"], "--held needs it"),
     (["--sim", "blx", "--body", "halfcheetah", "--noise", "0.1"], "--noise (a std >= 0) goes"),
@@ -197,6 +198,31 @@ def test_runs_are_described_by_their_physics():
   assert gait_search.describe(blx) == "blx halfcheetah, 8 x 6.25 ms"
   assert gait_search.describe(dict(sim="blx", body="pro_ant_run", env_param=["num_legs=3"])) == (
       "blx pro_ant_run num_legs=3, its default step")
+
+
+def test_the_legs_plot_groups_searches_and_trained_runs_by_physics_and_leg_count(tmp_path):
+  def search(sim, legs, elites):
+    args = dict(sim=sim, body="pro_ant_run", score="speed", env_param=[f"num_legs={legs}"])
+    return dict(args=args, seeds={str(i): dict(elite_last=e, best=e + 0.3)
+                                  for i, e in enumerate(elites)})
+  files = {"blx3.json": search("blx", 3, [1.5, 1.4]), "brax3.json": search("brax", 3, [1.4]),
+           "brax3b.json": search("brax", 3, [1.6]), "brax4.json": search("brax", 4, [2.2]),
+           "trained3.json": dict(env="pro_ant_run", env_params={"num_legs": 3},
+                                 per_seed={"0": dict(speed=2.3), "1": dict(speed=2.9)})}
+  paths = []
+  for name, value in files.items():
+    paths.append(str(tmp_path / name))
+    (tmp_path / name).write_text(json.dumps(value))
+  png = tmp_path / "legs.png"
+  groups = gait_search.plot_legs(paths, str(png))
+  assert groups == {("blx", 3): [1.5, 1.4], ("Brax v1", 3): [1.4, 1.6], ("Brax v1", 4): [2.2],
+                    ("trained", 3): [2.3, 2.9]}
+  assert png.stat().st_size > 10_000
+  swing = search("blx", 3, [1.0])
+  swing["args"]["score"] = "swing"
+  (tmp_path / "swing.json").write_text(json.dumps(swing))
+  with pytest.raises(ValueError, match="neither a speed search of --body pro_ant_run"):
+    gait_search.plot_legs([str(tmp_path / "swing.json")], str(png))
 
 
 def test_the_study_plot_takes_only_this_scripts_runs(tmp_path):
