@@ -439,7 +439,8 @@ def plot_legs(paths: list[str], png: str) -> dict:
   """How fast the procedural ant runs with each leg count, one figure: the speed searches of
   ``--body pro_ant_run`` in ``paths`` (each search seed's elite mean, blx's and Brax v1's side by
   side) and, where given, ``root_velocity.py`` JSONs of trained ``pro_ant_run`` runs (each seed's
-  mean speed), beside the 4 m/s that the run reward asks for. Returns the speeds drawn,
+  mean velocity's norm, the distance covered over the time as the search scores a gait), beside
+  the 4 m/s that the run reward asks for. Returns the speeds drawn,
   ``{(what, legs): [m/s, ...]}`` with ``what`` one of "blx", "Brax v1", "trained"."""
   import matplotlib
   matplotlib.use("Agg")
@@ -455,8 +456,8 @@ def plot_legs(paths: list[str], png: str) -> dict:
       speeds = [seed["elite_last"] for seed in r["seeds"].values()]
       legs = _legs(r["args"])
     elif r.get("env") == "pro_ant_run" and "per_seed" in r:
-      what = "trained"
-      speeds = [seed["speed"] for seed in r["per_seed"].values()]
+      what = "trained"   # the mean velocity's norm: the distance covered over the time taken
+      speeds = [float(np.hypot(*seed["velocity"])) for seed in r["per_seed"].values()]
       legs = int(r.get("env_params", {}).get("num_legs", 4))
     else:
       raise ValueError(f"{path} is neither a speed search of --body pro_ant_run nor a "
@@ -480,9 +481,11 @@ def plot_legs(paths: list[str], png: str) -> dict:
              label=label if x == min(i for i, m in enumerate(legs) if (kind, m) in groups)
              else None)
       ax.plot(np.full(len(speeds), pos), speeds, "o", color=color, ms=4)
+      if kind != "trained" and max(speeds) == 0:   # a gait scores 0 where the ant falls
+        ax.text(pos, 0.08, "all\nfall", ha="center", fontsize=8, color=color)
   ax.axhline(4.0, color="gray", ls="--", lw=1, label="the run reward's target speed (4 m/s)")
   ax.set_xticks(range(len(legs)), [f"{n} legs" for n in legs])
-  ax.set_ylabel("planar speed of the torso, m/s")
+  ax.set_ylabel("the torso's planar speed (distance covered / time), m/s")
   ax.set_ylim(0, 4.6)
   ax.set_title("pro_ant_run: how fast each leg count runs\n(bars: mean; dots: each search seed's "
                "12 best gaits, or each trained seed)")

@@ -208,7 +208,8 @@ def test_the_legs_plot_groups_searches_and_trained_runs_by_physics_and_leg_count
   files = {"blx3.json": search("blx", 3, [1.5, 1.4]), "brax3.json": search("brax", 3, [1.4]),
            "brax3b.json": search("brax", 3, [1.6]), "brax4.json": search("brax", 4, [2.2]),
            "trained3.json": dict(env="pro_ant_run", env_params={"num_legs": 3},
-                                 per_seed={"0": dict(speed=2.3), "1": dict(speed=2.9)})}
+                                 per_seed={"0": dict(velocity=[2.3, 0.0]),
+                                           "1": dict(velocity=[2.9, 0.0])})}
   paths = []
   for name, value in files.items():
     paths.append(str(tmp_path / name))
