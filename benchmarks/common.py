@@ -114,6 +114,21 @@ def write_json(path: str, value) -> None:
   os.replace(tmp, path)
 
 
+def env_params(pairs: Sequence[str]) -> dict:
+  """``--env-param``'s ``["num_legs=4", ...]`` as ``{"num_legs": 4}`` (values read as JSON where
+  they parse, else kept as text). ``ValueError`` naming a pair that is not KEY=VALUE."""
+  params = {}
+  for pair in pairs:
+    key, sep, value = pair.partition("=")
+    if not sep or not key:
+      raise ValueError(f"--env-param takes KEY=VALUE, got {pair!r}")
+    try:
+      params[key] = json.loads(value)
+    except json.JSONDecodeError:
+      params[key] = value
+  return params
+
+
 def seed_positions(text: str | None, num_seeds: int, flag: str = "--seeds") -> list[int]:
   """The positions in a run's ``num_seeds`` seeds that the option ``flag`` names (``"0,2"``;
   every one where ``text`` is None). ``ValueError`` naming what is wrong and what is valid."""

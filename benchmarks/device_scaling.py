@@ -31,17 +31,11 @@ CHILD = "--child-devices"
 
 
 def env_params(pairs: list[str]) -> dict:
-  """``["num_legs=4", ...]`` as ``{"num_legs": 4}`` (values read as JSON where they parse)."""
-  params = {}
-  for pair in pairs:
-    key, sep, value = pair.partition("=")
-    if not sep or not key:
-      raise SystemExit(f"device_scaling: --env-param takes KEY=VALUE, got {pair!r}")
-    try:
-      params[key] = json.loads(value)
-    except json.JSONDecodeError:
-      params[key] = value
-  return params
+  """``common.env_params``, a bad pair ending the process with its message."""
+  try:
+    return common.env_params(pairs)
+  except ValueError as err:
+    raise SystemExit(f"device_scaling: {err}") from None
 
 
 def device_counts(text: str) -> list[int]:

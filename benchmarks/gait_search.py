@@ -65,9 +65,14 @@ from __future__ import annotations
 import argparse
 import functools
 import json
+import os
+import sys
 import time
 
 import numpy as np
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import common  # noqa: E402
 
 STEPS, WARM, DT = 120, 20, 0.05
 POPULATION, ELITE = 96, 12
@@ -220,44 +225,45 @@ def parse_brax_sets(pairs: list[str]) -> dict[str, float]:
   return out
 
 
-def brax_pro_ant_config(num_legs: int, strength: float = 300.0) -> str:
+def brax_pro_ant_config(num_legs: int, strength: float | None = None) -> str:
   """A Brax v1 config (text format) of ``pro_ant_run``'s world as the paper ran it: the procedural
   ant of ``num_legs`` legs on the composer's ground, the composer's global options with the run's
   0.02 s control step of 16 substeps. The torso: a 10 kg capsule of radius 0.25 and length 0.5
   with one end cap. Leg i at theta = 2 pi i / N: a thigh capsule (r 0.08, length 0.443) on a hip
   0.301 m out along theta, a hinge of +-30 deg about the vertical; a shin capsule (r 0.08, length
   0.726, one end cap) on a knee across the leg, 30..70 deg; every link 1 kg with inertia 1; every
-  joint of stiffness 5000 and angular damping 35, driven by a torque actuator of ``strength``.
-  Every body of the ant collides with the ground, and nothing else collides."""
-  # the leg's lengths as blx's pro_ant (the same body as MJCF) takes them
-  from blx.envs.brax_bodies import MAX_LEGS, MIN_LEGS, PRO_ANT_RADIUS, PRO_ANT_SHIN_LENGTH
-  from blx.envs.brax_bodies import PRO_ANT_THIGH_LENGTH as PRO_ANT_THIGH
+  joint of stiffness 5000 and angular damping 35, driven by a torque actuator of ``strength``
+  (None: the paper's 300). Every body of the ant collides with the ground, and nothing else
+  collides."""
+  # the facts as blx's pro_ant (the same body as MJCF) takes them
+  from blx.envs import brax_bodies as b
+  from blx.envs.brax_bodies import MAX_LEGS, MIN_LEGS
+  strength = b.PRO_ANT_STRENGTH if strength is None else strength
   if not isinstance(num_legs, int) or isinstance(num_legs, bool) or not (
       MIN_LEGS <= num_legs <= MAX_LEGS):
     raise ValueError(f"num_legs={num_legs!r}: the procedural ant takes {MIN_LEGS}..{MAX_LEGS} legs")
   lines = ['bodies { name: "torso" colliders { capsule { radius: 0.25 length: 0.5 end: 1 } }',
            '  inertia { x: 1.0 y: 1.0 z: 1.0 } mass: 10 }']
   colliders = ["torso"]
-  hip = PRO_ANT_THIGH / 2 + PRO_ANT_RADIUS   # blx's PRO_ANT_HIP
   for i in range(num_legs):
     theta = 2 * np.pi * i / num_legs
     thigh, shin = f"thigh_{i}", f"shin_{i}"
     lines += [
         f'bodies {{ name: "{thigh}" colliders {{ rotation {{ x: 90 y: -90 }} capsule {{ radius: '
-        f'{PRO_ANT_RADIUS} length: {PRO_ANT_THIGH} }} }}',
+        f'{b.PRO_ANT_RADIUS} length: {b.PRO_ANT_THIGH_LENGTH} }} }}',
         '  inertia { x: 1.0 y: 1.0 z: 1.0 } mass: 1 }',
         f'bodies {{ name: "{shin}" colliders {{ rotation {{ x: 90 y: -90 }} capsule {{ radius: '
-        f'{PRO_ANT_RADIUS} length: {PRO_ANT_SHIN_LENGTH} end: -1 }} }}',
+        f'{b.PRO_ANT_RADIUS} length: {b.PRO_ANT_SHIN_LENGTH} end: -1 }} }}',
         '  inertia { x: 1.0 y: 1.0 z: 1.0 } mass: 1 }',
         f'joints {{ name: "hip_{i}" parent: "torso" child: "{thigh}"',
-        f'  parent_offset {{ x: {float(hip * np.cos(theta))!r} y: {float(hip * np.sin(theta))!r} }} '
-        'child_offset { }',
-        '  stiffness: 5000.0 angular_damping: 35 angle_limit { min: -30.0 max: 30.0 }',
+        f'  parent_offset {{ x: {float(b.PRO_ANT_HIP * np.cos(theta))!r} '
+        f'y: {float(b.PRO_ANT_HIP * np.sin(theta))!r} }} child_offset {{ }}',
+        f'  stiffness: 5000.0 angular_damping: {b.ANT_DAMPING!r} '
+        'angle_limit { min: -30.0 max: 30.0 }',
         f'  rotation {{ y: -90 }} reference_rotation {{ z: {float(np.degrees(theta))!r} }} }}',
         f'joints {{ name: "knee_{i}" parent: "{thigh}" child: "{shin}"',
-        f'  parent_offset {{ x: {PRO_ANT_THIGH / 2 - PRO_ANT_RADIUS!r} }} '
-        f'child_offset {{ x: {-PRO_ANT_SHIN_LENGTH / 2 + PRO_ANT_RADIUS!r} }}',
-        '  stiffness: 5000.0 angular_damping: 35 rotation { z: 90 } '
+        f'  parent_offset {{ x: {b.PRO_ANT_KNEE!r} }} child_offset {{ x: {-b.PRO_ANT_SHIN!r} }}',
+        f'  stiffness: 5000.0 angular_damping: {b.ANT_DAMPING!r} rotation {{ z: 90 }} '
         'angle_limit { min: 30.0 max: 70.0 } }']
     lines += [f'actuators {{ name: "{j}_{i}" joint: "{j}_{i}" strength: {float(strength)!r} '
               'torque { } }' for j in ("hip", "knee")]
@@ -426,15 +432,6 @@ def _plot_held(ax, held: list[dict]) -> None:
   ax.grid(alpha=0.3)
 
 
-def _legs(args: dict) -> int:
-  """The leg count of a procedural-ant run's ``--env-param``s (4, the env's default, if none)."""
-  for pair in args.get("env_param") or []:
-    key, _, value = pair.partition("=")
-    if key == "num_legs":
-      return int(value)
-  return 4
-
-
 def plot_legs(paths: list[str], png: str) -> dict:
   """How fast the procedural ant runs with each leg count, one figure: the speed searches of
   ``--body pro_ant_run`` in ``paths`` (each search seed's elite mean, blx's and Brax v1's side by
@@ -454,7 +451,7 @@ def plot_legs(paths: list[str], png: str) -> dict:
         r["args"]["score"] == "speed"):
       what = "Brax v1" if r["args"]["sim"] == "brax" else "blx"
       speeds = [seed["elite_last"] for seed in r["seeds"].values()]
-      legs = _legs(r["args"])
+      legs = common.env_params(r["args"].get("env_param") or []).get("num_legs", 4)
     elif r.get("env") == "pro_ant_run" and "per_seed" in r:
       what = "trained"   # the mean velocity's norm: the distance covered over the time taken
       speeds = [float(np.hypot(*seed["velocity"])) for seed in r["per_seed"].values()]
@@ -477,9 +474,8 @@ def plot_legs(paths: list[str], png: str) -> dict:
       if not speeds:
         continue
       pos = x - 0.4 + width * (k + 0.5)
-      ax.bar(pos, np.mean(speeds), width * 0.9, color=color, alpha=0.3,
-             label=label if x == min(i for i, m in enumerate(legs) if (kind, m) in groups)
-             else None)
+      ax.bar(pos, np.mean(speeds), width * 0.9, color=color, alpha=0.3, label=label)
+      label = None   # one legend entry per kind
       ax.plot(np.full(len(speeds), pos), speeds, "o", color=color, ms=4)
       if kind != "trained" and max(speeds) == 0:   # a gait scores 0 where the ant falls
         ax.text(pos, 0.08, "all\nfall", ha="center", fontsize=8, color=color)
@@ -670,15 +666,10 @@ def main():
   if args.drift is not None and args.body == "pro_ant_run":
     parser.error("--drift reads the last 2.5 s at a control step of 0.05 s: --body ant or "
                  "halfcheetah")
-  env_params = {}
-  for pair in args.env_param:
-    key, sep, value = pair.partition("=")
-    if not sep or not key:
-      parser.error(f"--env-param takes KEY=VALUE, got {pair!r}")
-    try:
-      env_params[key] = json.loads(value)
-    except json.JSONDecodeError:
-      env_params[key] = value
+  try:
+    env_params = common.env_params(args.env_param)
+  except ValueError as err:
+    parser.error(str(err))
   try:
     sets = parse_brax_sets(args.brax_set)
   except ValueError as err:
