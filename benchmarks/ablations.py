@@ -639,13 +639,28 @@ def _timed(rows: list[dict]) -> bool:
   return all(row.get("time") for row in rows)
 
 
-def _other_budget(path: str, run_spec: runs.RunSpec) -> str:
-  """" (a 10 M budget)" for a label where the run in ``path`` was trained for a budget other than
-  the study's (an arm of an earlier, shorter report, kept until its rerun finishes); else ""."""
+def _other_settings(path: str, run_spec: runs.RunSpec) -> str:
+  """What a label adds where the run in ``path`` was trained with PPO settings other than the
+  report's: " (a 10 M budget)" for another budget (an arm of an earlier, shorter report, kept until
+  its rerun finishes), " (trained with entropy_cost=0.1)" for any other setting (e.g. a report
+  drawn without the ``--config`` its arms trained with); else ""."""
   if not os.path.exists(os.path.join(path, "config.json")):
     return ""
-  trained, asked = (s.ppo.get("num_timesteps") for s in (runs.read_spec(path), run_spec))
-  return f" (a {trained / 1e6:g} M budget)" if trained and asked and trained != asked else ""
+  trained, asked = (s.ppo for s in (runs.read_spec(path), run_spec))
+  steps, asked_steps = trained.get("num_timesteps"), asked.get("num_timesteps")
+  note = (f" (a {steps / 1e6:g} M budget)" if steps and asked_steps and steps != asked_steps
+          else "")
+  other = [f"{key}={trained[key]!r}" if key in trained else f"the row's {key}"
+           for key in sorted((set(trained) | set(asked)) - {"num_timesteps"})
+           if trained.get(key) != asked.get(key)]
+  return note + (f" (trained with {', '.join(other)})" if other else "")
+
+
+def settings_line(sweep_spec: dict) -> str:
+  """The PPO settings every arm was asked to train with over the row's (``--config``), or ""."""
+  config = sweep_spec.get("config") or {}
+  return ("every arm's PPO over the row's: " + ", ".join(f"{k}={v!r}" for k, v in config.items())
+          if config else "")
 
 
 def report(study_name: str, study: Study, directory: str, sweep_spec: dict,
@@ -666,7 +681,7 @@ def report(study_name: str, study: Study, directory: str, sweep_spec: dict,
     path = os.path.join(directory, name)
     if not os.path.exists(os.path.join(path, "metrics.csv")):
       continue
-    labels[name] = study.label(name, run_spec) + _other_budget(path, run_spec)
+    labels[name] = study.label(name, run_spec) + _other_settings(path, run_spec)
     objectives[name] = run_spec.objective
     styles[name] = study.style(run_spec)
     devices[name] = runs.read_provenance(path)
@@ -745,7 +760,9 @@ def report(study_name: str, study: Study, directory: str, sweep_spec: dict,
       drawn.setdefault(name, handle)
   axes[0][-1].legend(drawn.values(), drawn.keys(), fontsize=7, loc="upper left",
                      bbox_to_anchor=(1.02, 1.0))
-  title = f"{study_name}; {study.claim_line} (mean ± std over seeds)"
+  settings = settings_line(sweep_spec)
+  title = (f"{study_name}; {study.claim_line}" + (f"; {settings}" if settings else "")
+           + " (mean ± std over seeds)")
   fig.suptitle(textwrap.fill(title, 60 * len(study.metrics)), fontsize=9)
   fig.tight_layout()
   fig.savefig(os.path.join(directory, "curves.png"), dpi=120, bbox_inches="tight")
@@ -807,8 +824,9 @@ def report(study_name: str, study: Study, directory: str, sweep_spec: dict,
               + (f" ({'; '.join(notes)})" if notes else "") + ":\n\n"
               + "\n".join(compare({reference.name: reference.final, **finals}, metrics)))
   with open(os.path.join(directory, "ablation.md"), "w") as f:
+    settings = f" {settings[0].upper()}{settings[1:]}." if settings else ""
     f.write(f"# {study_name}\n\n{study.claim_line[0].upper()}{study.claim_line[1:]}.\n\n"
-            f"{budget_line(study, sweep_spec, trained)}\n\n{table}\n")
+            f"{budget_line(study, sweep_spec, trained)}{settings}\n\n{table}\n")
   return table
 
 

@@ -438,7 +438,8 @@ def plot_legs(paths: list[str], png: str) -> dict:
   side) and, where given, ``root_velocity.py`` JSONs of trained ``pro_ant_run`` runs (each seed's
   mean velocity's norm, the distance covered over the time as the search scores a gait), beside
   the 4 m/s that the run reward asks for. Returns the speeds drawn,
-  ``{(what, legs): [m/s, ...]}`` with ``what`` one of "blx", "Brax v1", "trained"."""
+  ``{(what, legs): [m/s, ...]}`` with ``what`` one of "blx", "Brax v1", "trained" (runs of the
+  row's PPO) or "trained, entropy_cost=0.1" (runs trained with other PPO settings, each apart)."""
   import matplotlib
   matplotlib.use("Agg")
   import matplotlib.pyplot as plt
@@ -453,20 +454,31 @@ def plot_legs(paths: list[str], png: str) -> dict:
       speeds = [seed["elite_last"] for seed in r["seeds"].values()]
       legs = common.env_params(r["args"].get("env_param") or []).get("num_legs", 4)
     elif r.get("env") == "pro_ant_run" and "per_seed" in r:
-      what = "trained"   # the mean velocity's norm: the distance covered over the time taken
+      # trained runs apart by the PPO settings they trained with over the row's, the budget aside
+      # (a JSON from before root_velocity.py recorded them: the row's, as all runs were then)
+      over = {k: v for k, v in (r.get("ppo") or {}).items() if k != "num_timesteps"}
+      what = "trained" + "".join(f", {k}={v:g}" if isinstance(v, float) else f", {k}={v}"
+                                 for k, v in sorted(over.items()))
+      # the mean velocity's norm: the distance covered over the time taken
       speeds = [float(np.hypot(*seed["velocity"])) for seed in r["per_seed"].values()]
       legs = int(r.get("env_params", {}).get("num_legs", 4))
     else:
       raise ValueError(f"{path} is neither a speed search of --body pro_ant_run nor a "
                        "root_velocity.py JSON of a pro_ant_run run")
     groups.setdefault((what, legs), []).extend(speeds)
-  kinds = [k for k in ("blx", "Brax v1", "trained") if any(w == k for w, _ in groups)]
+  trained = sorted({w for w, _ in groups if w.startswith("trained")},
+                   key=lambda w: (w != "trained", w))   # the row's first
+  kinds = [k for k in ("blx", "Brax v1") if any(w == k for w, _ in groups)] + trained
   styles = {"blx": ("tab:blue", "open-loop gaits, blx (C MuJoCo, the env's MJCF)"),
-            "Brax v1": ("tab:red", "open-loop gaits, Brax v1 (brax 0.12.1, legacy_spring)"),
-            "trained": ("k", "trained policies (root_velocity.py, sampled actions)")}
+            "Brax v1": ("tab:red", "open-loop gaits, Brax v1 (brax 0.12.1, legacy_spring)")}
+  colours = iter(("tab:green", "tab:purple", "tab:brown", "tab:olive"))
+  for kind in trained:   # the row's PPO in black, each other setting a colour of its own
+    settings = kind[len("trained, "):] or "the row's PPO"
+    styles[kind] = ("k" if kind == "trained" else next(colours, "tab:gray"),
+                    f"trained policies, {settings} (root_velocity.py, sampled actions)")
   legs = sorted({n for _, n in groups})
   width = 0.8 / len(kinds)
-  fig, ax = plt.subplots(figsize=(7.5, 5))
+  fig, ax = plt.subplots(figsize=(7.5, 6))
   for k, kind in enumerate(kinds):
     color, label = styles[kind]
     for x, n in enumerate(legs):
@@ -477,7 +489,8 @@ def plot_legs(paths: list[str], png: str) -> dict:
       ax.bar(pos, np.mean(speeds), width * 0.9, color=color, alpha=0.3, label=label)
       label = None   # one legend entry per kind
       ax.plot(np.full(len(speeds), pos), speeds, "o", color=color, ms=4)
-      if kind != "trained" and max(speeds) == 0:   # a gait scores 0 where the ant falls
+      # a gait scores 0 where the ant falls
+      if not kind.startswith("trained") and max(speeds) == 0:
         ax.text(pos, 0.08, "all\nfall", ha="center", fontsize=8, color=color)
   ax.axhline(4.0, color="gray", ls="--", lw=1, label="the run reward's target speed (4 m/s)")
   ax.set_xticks(range(len(legs)), [f"{n} legs" for n in legs])
@@ -485,7 +498,7 @@ def plot_legs(paths: list[str], png: str) -> dict:
   ax.set_ylim(0, 4.6)
   ax.set_title("pro_ant_run: how fast each leg count runs\n(bars: mean; dots: each search seed's "
                "12 best gaits, or each trained seed)")
-  ax.legend(fontsize=8, loc="upper left")
+  ax.legend(fontsize=8, loc="upper center", bbox_to_anchor=(0.5, -0.1))  # under the bars
   ax.grid(alpha=0.3, axis="y")
   fig.tight_layout()
   fig.savefig(png, dpi=120)

@@ -107,8 +107,11 @@ def main():
   arrays = jax.jit(jax.vmap(lambda p, k: episodes(run, p, k, args.episodes, args.deterministic)))(
       params, keys)
   arrays = [np.asarray(a) for a in arrays]
+  # the PPO settings it trained with over its row's (e.g. an entropy_cost), so that a reader of the
+  # JSON, or gait_search.py --plot-legs, tells runs of one env apart
   result = {"run": args.run, "env": run.spec.env, "env_params": run.spec.env_params or {},
-            "episodes": args.episodes, "deterministic": args.deterministic, "per_seed": {}}
+            "ppo": dict(run.spec.ppo or {}), "episodes": args.episodes,
+            "deterministic": args.deterministic, "per_seed": {}}
   for i, position in enumerate(picked):
     seed = run.spec.seeds[position]
     read = read_seed(*(a[i] for a in arrays))

@@ -576,6 +576,37 @@ def test_an_arm_trained_for_another_budget_than_the_reports_is_labelled_with_its
   assert rows[1].startswith("| scale 0.2 (a 0.001 M budget) (unfinished) |")
 
 
+def test_a_report_names_the_ppo_settings_its_arms_trained_with_over_the_row(tmp_path):
+  import types
+  from blx.experiments import runs
+  study = ablations.STUDIES["legs_original"]
+  # the arms trained with a larger entropy cost (--config); the report is asked with it, so the
+  # title and ablation.md name it, and no arm's label repeats it
+  spec = ablations.spec(study, "ant", 2, steps=3000, config={"entropy_cost": 0.1})
+  (first, first_spec), (second, second_spec) = sweep.expand(spec)[:2]
+  for name, run_spec in ((first, first_spec), (second, second_spec)):
+    runs.write_config(str(tmp_path / name), run_spec, types.SimpleNamespace(desc={}))
+    _write_metrics(tmp_path / name / "metrics.csv", {(0, 1000): 1.0, (1, 1000): 2.0},
+                   key="eval/episode_score")
+  table = ablations.report("legs_original", study, str(tmp_path), spec)
+  written = (tmp_path / "ablation.md").read_text()
+  assert "Every arm's PPO over the row's: entropy_cost=0.1." in written
+  assert "trained with" not in table
+  # the same arms reported without --config: each label says what its arm trained with
+  plain = ablations.spec(study, "ant", 2, steps=3000)
+  table = ablations.report("legs_original", study, str(tmp_path), plain)
+  rows = [r for r in table.splitlines() if "eval/episode_score" in r]
+  assert rows and all("(trained with entropy_cost=0.1)" in r for r in rows)
+  assert "over the row's" not in (tmp_path / "ablation.md").read_text()
+  # and an arm trained with the row's setting, reported with --config, says that
+  runs.write_config(str(tmp_path / first), sweep.expand(plain)[0][1],
+                    types.SimpleNamespace(desc={}))
+  table = ablations.report("legs_original", study, str(tmp_path), spec)
+  rows = [r for r in table.splitlines() if "eval/episode_score" in r]
+  assert "(trained with the row's entropy_cost)" in rows[0]
+  assert "trained with" not in rows[1]
+
+
 def test_references_named_twice_or_too_many_are_refused_before_anything_trains(
     monkeypatch, capsys, tmp_path):
   _write_metrics(tmp_path / "metrics.csv", {(0, 10): 0.5})

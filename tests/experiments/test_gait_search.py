@@ -209,7 +209,14 @@ def test_the_legs_plot_groups_searches_and_trained_runs_by_physics_and_leg_count
            "brax3b.json": search("brax", 3, [1.6]), "brax4.json": search("brax", 4, [2.2]),
            "trained3.json": dict(env="pro_ant_run", env_params={"num_legs": 3},
                                  per_seed={"0": dict(velocity=[2.3, 0.0]),
-                                           "1": dict(velocity=[2.9, 0.0])})}
+                                           "1": dict(velocity=[2.9, 0.0])}),
+           # the row's PPO at another budget joins the row's; a larger entropy cost stands apart
+           "trained3_budget.json": dict(env="pro_ant_run", env_params={"num_legs": 3},
+                                        ppo={"num_timesteps": 300_000_000},
+                                        per_seed={"0": dict(velocity=[0.0, 2.0])}),
+           "trained3_entropy.json": dict(env="pro_ant_run", env_params={"num_legs": 3},
+                                         ppo={"num_timesteps": 300_000_000, "entropy_cost": 0.1},
+                                         per_seed={"0": dict(velocity=[3.0, 4.0])})}
   paths = []
   for name, value in files.items():
     paths.append(str(tmp_path / name))
@@ -217,7 +224,7 @@ def test_the_legs_plot_groups_searches_and_trained_runs_by_physics_and_leg_count
   png = tmp_path / "legs.png"
   groups = gait_search.plot_legs(paths, str(png))
   assert groups == {("blx", 3): [1.5, 1.4], ("Brax v1", 3): [1.4, 1.6], ("Brax v1", 4): [2.2],
-                    ("trained", 3): [2.3, 2.9]}
+                    ("trained", 3): [2.3, 2.9, 2.0], ("trained, entropy_cost=0.1", 3): [5.0]}
   assert png.stat().st_size > 10_000
   swing = search("blx", 3, [1.0])
   swing["args"]["score"] = "swing"
