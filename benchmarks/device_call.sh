@@ -44,8 +44,9 @@
 # trained since its last pack is lost. Never stop an arm with `pkill -f PATTERN` from the call's
 # command line either: the pattern matches that command line itself and kills the call.
 #
-# The exit status is COMMAND's (124 when interrupted at SECONDS), 2 for a bad call, or 3 where
-# RESUME=1 finds nothing to resume.
+# The exit status is COMMAND's (124 when interrupted at SECONDS), 2 for a bad call (also a machine
+# without the wheels: python3 finds none of $NEEDS, default "mujoco distrax"), or 3 where RESUME=1
+# finds nothing to resume.
 set -uo pipefail
 if [ $# -lt 4 ]; then
   echo "usage: bash benchmarks/device_call.sh NAME RUN_DIR SECONDS COMMAND [ARG ...]" >&2
@@ -94,6 +95,16 @@ for wheels in .whl-train .whl; do
 done
 rmdir "$site.lock" 2>/dev/null
 export PYTHONPATH=$site:$PWD${PYTHONPATH:+:$PYTHONPATH} PYTHONUNBUFFERED=1
+# A machine without the wheels (a fresh one: the last went back between calls, after 30 s idle)
+# cannot train: say so now, rather than in a traceback of the first import.
+missing=$(python3 -c 'import importlib.util as u, sys
+print(" ".join(m for m in sys.argv[1:] if u.find_spec(m) is None))' ${NEEDS:-mujoco distrax})
+if [ -n "$missing" ]; then
+  echo "device_call: python3 finds no $missing here: this machine has no wheels installed (a" \
+    "fresh machine? the last one goes back after 30 s idle) and none were carried; carry" \
+    ".whl-train, and the run's last parts ($carry_dir)" | tee -a "$log" >&2
+  exit 2
+fi
 
 # 2. Resume from carried parts.
 if ! [ -e "$run_dir" ]; then

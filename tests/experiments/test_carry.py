@@ -547,6 +547,20 @@ def test_a_device_call_carries_nothing_back_for_a_run_that_never_reached_a_check
   assert not (tmp_path / "stage-hc").exists()
 
 
+def test_a_device_call_on_a_machine_without_the_wheels_says_so_before_it_runs(tmp_path):
+  # a fresh machine (the last one went back between calls) with nothing carried: the modules the
+  # run needs are missing, and the call says so instead of running COMMAND into an import error
+  done = _device_call(tmp_path, tmp_path / "out", "hc", "runs/hc", 60, "touch", "trained",
+                      extra={"NEEDS": "blxprobe_absent json"})
+  assert done.returncode == 2 and "finds no blxprobe_absent here" in done.stderr
+  assert "carry .whl-train" in done.stderr and not (tmp_path / "trained").exists()
+  # carried wheels are installed first, so the same check passes on the module they bring
+  _wheel(tmp_path / ".whl-train")
+  done = _device_call(tmp_path, tmp_path / "out", "hc", "runs/hc", 60, "touch", "trained",
+                      extra={"NEEDS": "blxprobe"})
+  assert done.returncode == 0 and (tmp_path / "trained").exists()
+
+
 def test_a_device_call_names_a_bad_call(tmp_path):
   done = _device_call(tmp_path, tmp_path / "out", "hc", "runs/hc", "ten", "true")
   assert done.returncode == 2 and "SECONDS must be a whole number" in done.stderr
