@@ -45,7 +45,7 @@
 # command line either: the pattern matches that command line itself and kills the call.
 #
 # The exit status is COMMAND's (124 when interrupted at SECONDS), 2 for a bad call (also a machine
-# without the wheels: python3 finds none of $NEEDS, default "mujoco distrax"), or 3 where RESUME=1
+# without the wheels: python3 misses a module of $NEEDS, default "mujoco distrax"), or 3 where RESUME=1
 # finds nothing to resume.
 set -uo pipefail
 if [ $# -lt 4 ]; then
