@@ -44,9 +44,9 @@
 # trained since its last pack is lost. Never stop an arm with `pkill -f PATTERN` from the call's
 # command line either: the pattern matches that command line itself and kills the call.
 #
-# The exit status is COMMAND's (124 when interrupted at SECONDS), 2 for a bad call (also a machine
-# without the wheels: python3 misses a module of $NEEDS, default "mujoco distrax"), or 3 where RESUME=1
-# finds nothing to resume.
+# The exit status is COMMAND's (124 when interrupted at SECONDS), 2 for a bad call (also a
+# machine without the wheels: python3 misses a module of $NEEDS, default "mujoco distrax"), or 3
+# where RESUME=1 finds nothing to resume.
 set -uo pipefail
 if [ $# -lt 4 ]; then
   echo "usage: bash benchmarks/device_call.sh NAME RUN_DIR SECONDS COMMAND [ARG ...]" >&2
