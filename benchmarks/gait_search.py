@@ -457,8 +457,7 @@ def plot_legs(paths: list[str], png: str) -> dict:
       # trained runs apart by the PPO settings they trained with over the row's, the budget aside
       # (a JSON from before root_velocity.py recorded them: the row's, as all runs were then)
       over = {k: v for k, v in (r.get("ppo") or {}).items() if k != "num_timesteps"}
-      what = "trained" + "".join(f", {k}={v:g}" if isinstance(v, float) else f", {k}={v}"
-                                 for k, v in sorted(over.items()))
+      what = "trained" + "".join(f", {k}={v!r}" for k, v in sorted(over.items()))
       # the mean velocity's norm: the distance covered over the time taken
       speeds = [float(np.hypot(*seed["velocity"])) for seed in r["per_seed"].values()]
       legs = int(r.get("env_params", {}).get("num_legs", 4))
