@@ -432,19 +432,23 @@ def _plot_held(ax, held: list[dict]) -> None:
   ax.grid(alpha=0.3)
 
 
-def plot_legs(paths: list[str], png: str) -> dict:
+def plot_legs(paths: list[str], png: str) -> tuple[dict, dict]:
   """How fast the procedural ant runs with each leg count, one figure: the speed searches of
   ``--body pro_ant_run`` in ``paths`` (each search seed's elite mean, blx's and Brax v1's side by
   side) and, where given, ``root_velocity.py`` JSONs of trained ``pro_ant_run`` runs (each seed's
   mean velocity's norm, the distance covered over the time as the search scores a gait), beside
   the 4 m/s that the run reward asks for. Returns the speeds drawn,
   ``{(what, legs): [m/s, ...]}`` with ``what`` one of "blx", "Brax v1", "trained" (runs of the
-  row's PPO) or "trained, entropy_cost=0.1" (runs trained with other PPO settings, each apart)."""
+  row's PPO) or "trained, entropy_cost=0.1" (runs trained with other PPO settings, each apart),
+  and the env steps per seed written at each trained bar's foot, ``{(what, legs): "45 M"}``
+  (from the JSON's ``env_steps``; "?" for a JSON from before root_velocity.py recorded them):
+  trained runs of unfinished rows stand at different budgets."""
   import matplotlib
   matplotlib.use("Agg")
   import matplotlib.pyplot as plt
 
   groups = {}   # (what, legs) -> speeds
+  trained_at = {}   # (what, legs) -> the env steps per seed of its runs
   for path in paths:
     with open(path) as f:
       r = json.load(f)
@@ -461,10 +465,14 @@ def plot_legs(paths: list[str], png: str) -> dict:
       # the mean velocity's norm: the distance covered over the time taken
       speeds = [float(np.hypot(*seed["velocity"])) for seed in r["per_seed"].values()]
       legs = int(r.get("env_params", {}).get("num_legs", 4))
+      trained_at.setdefault((what, legs), set()).add(r.get("env_steps"))
     else:
       raise ValueError(f"{path} is neither a speed search of --body pro_ant_run nor a "
                        "root_velocity.py JSON of a pro_ant_run run")
     groups.setdefault((what, legs), []).extend(speeds)
+  steps = {group: "/".join("?" if n is None else f"{n / 1e6:.0f} M"
+                          for n in sorted(at, key=lambda n: (n is None, n or 0)))
+           for group, at in trained_at.items()}
   trained = sorted({w for w, _ in groups if w.startswith("trained")},
                    key=lambda w: (w != "trained", w))   # the row's first
   kinds = [k for k in ("blx", "Brax v1") if any(w == k for w, _ in groups)] + trained
@@ -491,18 +499,21 @@ def plot_legs(paths: list[str], png: str) -> dict:
       # a gait scores 0 where the ant falls
       if not kind.startswith("trained") and max(speeds) == 0:
         ax.text(pos, 0.08, "all\nfall", ha="center", fontsize=8, color=color)
+      if (kind, n) in steps:
+        ax.text(pos, 0.05, steps[kind, n], ha="center", va="bottom", fontsize=7, rotation=90)
   ax.axhline(4.0, color="gray", ls="--", lw=1, label="the run reward's target speed (4 m/s)")
   ax.set_xticks(range(len(legs)), [f"{n} legs" for n in legs])
   ax.set_ylabel("the torso's planar speed (distance covered / time), m/s")
   ax.set_ylim(0, 4.6)
   ax.set_title("pro_ant_run: how fast each leg count runs\n(bars: mean; dots: each search seed's "
-               "12 best gaits, or each trained seed)")
+               "12 best gaits, or each trained seed;\nat a trained bar's foot: its env steps per "
+               "seed)")
   ax.legend(fontsize=8, loc="upper center", bbox_to_anchor=(0.5, -0.1))  # under the bars
   ax.grid(alpha=0.3, axis="y")
   fig.tight_layout()
   fig.savefig(png, dpi=120)
   plt.close(fig)
-  return groups
+  return groups, steps
 
 
 def plot_study(paths: list[str], png: str, reference: str | None = None) -> None:

@@ -20,6 +20,8 @@ sampled unless ``--deterministic``, no reset after a fall), read over the scored
   along the world's +x);
 - ``upside_down``: the share of states with the root's up axis below the horizon.
 ``summary`` holds the mean and std over seeds of each; the circular ones are averaged as angles.
+The JSON also names the run's env, its PPO settings over its row's (``ppo``) and the env steps per
+seed its checkpoint had trained (``env_steps``: an unfinished run's last whole chunk).
 """
 
 from __future__ import annotations
@@ -109,8 +111,11 @@ def main():
   arrays = [np.asarray(a) for a in arrays]
   # the PPO settings it trained with over its row's (e.g. an entropy_cost), so that a reader of the
   # JSON, or gait_search.py --plot-legs, tells runs of one env apart
+  # and how far it had trained: an unfinished run's policy is its last whole checkpoint's
+  history = run.meta.get("history") or [{}]
   result = {"run": args.run, "env": run.spec.env, "env_params": run.spec.env_params or {},
-            "ppo": dict(run.spec.ppo or {}), "episodes": args.episodes,
+            "ppo": dict(run.spec.ppo or {}), "env_steps": history[-1].get("env_steps"),
+            "episodes": args.episodes,
             "deterministic": args.deterministic, "per_seed": {}}
   for i, position in enumerate(picked):
     seed = run.spec.seeds[position]

@@ -216,15 +216,21 @@ def test_the_legs_plot_groups_searches_and_trained_runs_by_physics_and_leg_count
                                         per_seed={"0": dict(velocity=[0.0, 2.0])}),
            "trained3_entropy.json": dict(env="pro_ant_run", env_params={"num_legs": 3},
                                          ppo={"num_timesteps": 300_000_000, "entropy_cost": 0.1},
+                                         env_steps=75_366_400.0,
                                          per_seed={"0": dict(velocity=[3.0, 4.0])})}
   paths = []
   for name, value in files.items():
     paths.append(str(tmp_path / name))
     (tmp_path / name).write_text(json.dumps(value))
   png = tmp_path / "legs.png"
-  groups = gait_search.plot_legs(paths, str(png))
+  groups, steps = gait_search.plot_legs(paths, str(png))
   assert groups == {("blx", 3): [1.5, 1.4], ("Brax v1", 3): [1.4, 1.6], ("Brax v1", 4): [2.2],
                     ("trained", 3): [2.3, 2.9, 2.0], ("trained, entropy_cost=0.1", 3): [5.0]}
+  # each trained bar names how far its runs had trained; a JSON without env_steps, "?"
+  assert steps == {("trained", 3): "?", ("trained, entropy_cost=0.1", 3): "75 M"}
+  files["trained3.json"]["env_steps"] = 105_512_960.0
+  (tmp_path / "trained3.json").write_text(json.dumps(files["trained3.json"]))
+  assert gait_search.plot_legs(paths, str(png))[1][("trained", 3)] == "106 M/?"
   assert png.stat().st_size > 10_000
   swing = search("blx", 3, [1.0])
   swing["args"]["score"] = "swing"

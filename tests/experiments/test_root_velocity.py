@@ -1,6 +1,7 @@
 """benchmarks/root_velocity.py: which way a run's body moves, in the world and in its own frame,
 on a stand-in env whose episodes are known."""
 
+import json
 import math
 from types import SimpleNamespace
 from typing import NamedTuple
@@ -100,3 +101,25 @@ def test_the_command_refuses_an_env_without_a_planar_root_velocity(monkeypatch, 
     with pytest.raises(SystemExit):
       root_velocity.main()
     assert message in capsys.readouterr().err
+
+
+def test_the_json_names_the_runs_settings_and_how_far_it_had_trained(monkeypatch, tmp_path):
+  def run(meta):
+    spec = SimpleNamespace(seeds=(3, 5), env="runner", env_params={"num_legs": 3},
+                           ppo={"entropy_cost": 0.1})
+    policy = lambda params, obs, z=None, key=None, deterministic=False: (   # noqa: E731
+        jnp.zeros(obs.shape[:-1] + (1,)))
+    return SimpleNamespace(spec=spec, env=envs.episode(_Runner(), 8), policy=policy,
+                           params={"w": jnp.zeros((2,))}, meta=meta)
+  out = tmp_path / "velocity.json"
+  for meta, env_steps in (({"history": [{"env_steps": 1e6}, {"env_steps": 2e6}]}, 2e6),
+                          ({}, None)):   # no history: how far it trained is not known
+    monkeypatch.setattr(root_velocity.common.runs, "load_run", lambda directory: run(meta))
+    monkeypatch.setattr("sys.argv", ["root_velocity.py", str(tmp_path), "--episodes", "2",
+                                     "--out", str(out)])
+    root_velocity.main()
+    result = json.loads(out.read_text())
+    assert result["env_steps"] == env_steps
+    assert result["ppo"] == {"entropy_cost": 0.1} and result["env_params"] == {"num_legs": 3}
+    assert sorted(result["per_seed"]) == ["3", "5"]
+    assert result["summary"]["speed"]["mean"] == pytest.approx(2.0, abs=1e-5)
