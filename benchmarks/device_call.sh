@@ -21,7 +21,10 @@
 #    `--resume RUN_DIR` from the second call on), logged to $OUT/NAME.log, and is interrupted
 #    (SIGINT, then killed 30 s later) SECONDS after it starts: the run keeps its last whole
 #    checkpoint, written after every evaluation. Leave the call's 600 s room for that and the
-#    pack: SECONDS 540 at most.
+#    pack: SECONDS 540 at most. With BLX_CHECKPOINT_SEGMENTS=N in the call's environment (e.g.
+#    `BLX_CHECKPOINT_SEGMENTS=4 bash benchmarks/device_call.sh ...`) the run also checkpoints N - 1
+#    times within each chunk, so the call loses at most a segment, not most of a chunk (the
+#    legs rows': a chunk of 277 s, one in a call of 540 s without; the run is the same).
 # 4. Carry back: RUN_DIR, where it holds a checkpoint, is packed (`carry.py pack`: checkpoints
 #    compact, without the envs' state) and its parts go to $OUT beside the log, so that a machine
 #    lost after the call loses nothing (a new run stopped before its first checkpoint is not

@@ -111,10 +111,12 @@ def main():
   arrays = [np.asarray(a) for a in arrays]
   # the PPO settings it trained with over its row's (e.g. an entropy_cost), so that a reader of the
   # JSON, or gait_search.py --plot-legs, tells runs of one env apart
-  # and how far it had trained: an unfinished run's policy is its last whole checkpoint's
+  # and how far it had trained: an unfinished run's policy is its last checkpoint's, which, where
+  # it trained in segments (train(checkpoint_segments=...)), may be past its last evaluation
   history = run.meta.get("history") or [{}]
   result = {"run": args.run, "env": run.spec.env, "env_params": run.spec.env_params or {},
-            "ppo": dict(run.spec.ppo or {}), "env_steps": history[-1].get("env_steps"),
+            "ppo": dict(run.spec.ppo or {}),
+            "env_steps": run.meta.get("env_steps", history[-1].get("env_steps")),
             "episodes": args.episodes,
             "deterministic": args.deterministic, "per_seed": {}}
   for i, position in enumerate(picked):

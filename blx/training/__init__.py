@@ -2,12 +2,13 @@
 
 from blx.training.config import PPOConfig, check_seeds, ppo_defaults
 from blx.training.loop import (NonFiniteError, TrainResult, drop_env_state, evaluate_together,
-                               print_progress, restore_state, train)
+                               print_progress, restore_state, segment_length, train)
 from blx.training.losses import clipped_surrogate, gae
 from blx.training.ppo import (RETURN_KEYS, Params, PolicyParams, Trainer, TrainState, make_policy,
                               make_train, make_trainer, place_state, policy_params)
 
 __all__ = ["RETURN_KEYS", "PPOConfig", "ppo_defaults", "check_seeds", "NonFiniteError",
            "TrainResult", "train", "evaluate_together", "print_progress", "restore_state",
-           "drop_env_state", "clipped_surrogate", "gae", "Params", "PolicyParams", "policy_params",
+           "drop_env_state", "segment_length", "clipped_surrogate", "gae", "Params",
+           "PolicyParams", "policy_params",
            "Trainer", "TrainState", "make_policy", "make_train", "make_trainer", "place_state"]

@@ -22,7 +22,7 @@ from blx.training.ppo import (PolicyParams, Trainer, TrainState, make_trainer, p
                               policy_params, reduce_stats)
 
 __all__ = ["TrainResult", "train", "run_keys", "NonFiniteError", "evaluate_together", "compile_all",
-           "parallel_compile_default", "restore_state", "drop_env_state"]
+           "parallel_compile_default", "restore_state", "drop_env_state", "segment_length"]
 
 
 class NonFiniteError(FloatingPointError):
@@ -90,7 +90,8 @@ def evaluate_together(trainer: Trainer, evaluate: Callable | None
 def train(env: Any, objective: Objective, config: PPOConfig, *, seeds: Sequence[int] = (0,),
           progress: bool | Callable[[dict], None] = True, checkpoint_dir: str | None = None,
           resume: bool = False, evaluate: Callable | None = None,
-          parallel_compile: bool | None = None) -> TrainResult:
+          parallel_compile: bool | None = None,
+          checkpoint_segments: int | None = None) -> TrainResult:
   """Trains ``objective`` on ``env`` with PPO for every seed in one vmapped program.
 
   Args:
@@ -109,26 +110,34 @@ def train(env: Any, objective: Objective, config: PPOConfig, *, seeds: Sequence[
     parallel_compile: compile the chunk and the evaluation at the same time, each in a thread of
       its own (``compile_all``). None (the default) decides by ``$BLX_PARALLEL_COMPILE`` (``1``
       or ``0``), else by the host: on where it has at least 8 cores.
+    checkpoint_segments: run each chunk as this many segments of its iterations, checkpointing
+      after each (evaluations, reports and the metrics' rows stay one per chunk), so that a run
+      stopped mid-chunk (a device call's time limit) keeps all but its last segment. The
+      iterations, and so the run, are the same (tested bit for bit on CPU). None (the default)
+      reads ``$BLX_CHECKPOINT_SEGMENTS``, else 1. At most the chunk's iterations; a resumed run
+      may use another number than the one it stopped with.
 
   Raises:
     NonFiniteError: an observation, a reward, a loss, a gradient or a parameter became
       non-finite; the message names the iteration, the seed and the quantities (for a loss, its
       terms and PPO's largest log-ratio at the first bad SGD step), and the checkpoint of the
-      last good chunk is kept.
-    KeyboardInterrupt: passed on at once, with the checkpoint of the last chunk reported; the
-      chunk in flight is dropped, and does not hold the process's exit.
+      last good chunk (or segment) is kept.
+    KeyboardInterrupt: passed on at once, with the checkpoint of the last chunk (or segment)
+      reported; the chunk in flight is dropped, and does not hold the process's exit.
   """
   seeds = list(check_seeds(seeds, "train: seeds"))
   trainer = make_trainer(env, objective, config)
+  per_chunk = trainer.iterations_per_chunk
+  segment = segment_length(per_chunk, checkpoint_segments)
   init_keys, eval_keys = run_keys(seeds)
   init_fn = jax.jit(jax.vmap(trainer.init))
-  chunk_fn = jax.jit(jax.vmap(trainer.chunk))
   evaluate_all = evaluate_together(trainer, evaluate)
   eval_fn = jax.jit(jax.vmap(lambda state, key, evaluator_key: evaluate_all(
       policy_params(state), key, evaluator_key)))
   report = print_progress if progress is True else (progress or None)
 
   start_chunk, history, time_before = 0, [], 0.0
+  done_in_chunk, partial_metrics = 0, []   # a resume mid-chunk: its segments run so far
   # The checkpoint records staggered_starts resolved (None chooses by num_envs), as it ran.
   run_config = {**dataclasses.asdict(config), "staggered_starts": config.starts_staggered}
   meta_base = {"seeds": seeds, "config": run_config, "objective": objective.name,
@@ -145,6 +154,10 @@ def train(env: Any, objective: Objective, config: PPOConfig, *, seeds: Sequence[
                          f"{key} ({meta.get(key)!r}); start a new run or use the same {key}")
     start_chunk, history = int(meta["chunk"]), list(meta.get("history", []))
     time_before = float(history[-1]["time"]) if history else 0.0
+    if meta.get("partial"):
+      done_in_chunk = int(meta["partial"]["iterations"])
+      partial_metrics = [_metrics_from_json(meta["partial"]["metrics"])]
+      time_before = float(meta["partial"]["time"])
     if state.env_state is None:  # written with checkpoint_env_state=False: every env starts anew
       state = state.replace(env_state=init_fn(init_keys).env_state)
   else:
@@ -153,43 +166,60 @@ def train(env: Any, objective: Objective, config: PPOConfig, *, seeds: Sequence[
   # are compiled for (a restored state comes back on one device).
   state = place_state(state, config.num_envs)
 
-  total = trainer.num_chunks * trainer.iterations_per_chunk * trainer.env_steps_per_iteration
+  total = trainer.num_chunks * per_chunk * trainer.env_steps_per_iteration
+  pieces = _segments(start_chunk, done_in_chunk, trainer.num_chunks, per_chunk, segment)
   t0 = time.time()
-  steps0 = start_chunk * trainer.iterations_per_chunk * trainer.env_steps_per_iteration
+  steps0 = float(np.asarray(state.env_steps).reshape(-1)[0])
   # Compiled ahead of the first chunk, so that the reported steps/s and ETA leave compilation out
   # ("time" in the metrics is the wall time since the start, compilation included).
-  if start_chunk < trainer.num_chunks:  # (a finished run resumed has nothing to compile)
-    chunk_fn, eval_fn = compile_all(
-        [lambda: chunk_fn.lower(state), lambda: eval_fn.lower(state, eval_keys, eval_keys)],
-        parallel=parallel_compile)
+  segment_fns = {}   # iterations -> the program that runs them: at most three lengths
+  if pieces:  # (a finished run resumed has nothing to compile)
+    lengths = sorted({length for _, _, length in pieces})
+    *programs, eval_fn = compile_all(
+        [*(lambda n=n: jax.jit(jax.vmap(lambda state: trainer.chunk(state, n))).lower(state)
+           for n in lengths),
+         lambda: eval_fn.lower(state, eval_keys, eval_keys)], parallel=parallel_compile)
+    segment_fns = dict(zip(lengths, programs))
   compile_seconds = time.time() - t0
 
-  def dispatch(state, chunk):
-    """Queues chunk ``chunk`` after ``state`` and the evaluations of its result on the device.
-    Runs on the dispatch thread, which may wait there for the device (on a GPU, loops whose end
-    depends on the data, as MJX's solver's, are checked from the launching thread)."""
-    state, metrics = chunk_fn(*_as_compiled_for(chunk_fn, state))
+  def dispatch(state, piece):
+    """Queues segment ``piece`` after ``state`` and, where it ends its chunk, the evaluations of its
+    result on the device. Runs on the dispatch thread, which may wait there for the device (on a
+    GPU, loops whose end depends on the data, as MJX's solver's, are checked from the launching
+    thread)."""
+    chunk, first, length = piece
+    fn = segment_fns[length]
+    state, metrics = fn(*_as_compiled_for(fn, state))
+    if first + length < per_chunk:
+      return state, metrics, None
     fold = jax.vmap(jax.random.fold_in, (0, None))
     evals = eval_fn(*_as_compiled_for(eval_fn, state, fold(eval_keys, chunk),
                                       fold(eval_keys, 1_000_003 + chunk)))
     return state, metrics, evals
 
-  # Chunks are dispatched from a second thread, so that the host checks, checkpoints and reports
-  # chunk k while the device runs chunk k + 1 (JAX's asynchronous dispatch alone did not overlap
-  # them on a GPU: each report came one chunk late, benchmarks/RESULTS.md session 13).
+  # Segments are dispatched from a second thread, so that the host checks, checkpoints and reports
+  # segment k while the device runs segment k + 1 (JAX's asynchronous dispatch alone did not
+  # overlap them on a GPU: each report came one chunk late, benchmarks/RESULTS.md session 13).
   try:
-    pending = (_in_background(dispatch, state, start_chunk)
-               if start_chunk < trainer.num_chunks else None)
-    for chunk in range(start_chunk, trainer.num_chunks):
+    pending = _in_background(dispatch, state, pieces[0]) if pieces else None
+    for i, (chunk, first, length) in enumerate(pieces):
       state, metrics, evals = pending.result()
-      # The small results start for the host before the next chunk is queued behind them. A
-      # chunk that fails the finite check raises below; the chunk queued after it is dropped.
+      # The small results start for the host before the next segment is queued behind them. A
+      # segment that fails the finite check raises below; the one queued after it is dropped.
       for leaf in jax.tree.leaves((metrics, evals)):
         leaf.copy_to_host_async()
-      pending = (_in_background(dispatch, state, chunk + 1)
-                 if chunk + 1 < trainer.num_chunks else None)
+      pending = _in_background(dispatch, state, pieces[i + 1]) if i + 1 < len(pieces) else None
       metrics = jax.device_get(metrics)
-      _check_finite(metrics, chunk * trainer.iterations_per_chunk, seeds, checkpoint_dir)
+      _check_finite(metrics, chunk * per_chunk + first, seeds, checkpoint_dir)
+      partial_metrics.append({k: np.asarray(v) for k, v in metrics.items()
+                              if not k.startswith("nonfinite/")})
+      if evals is None:   # mid-chunk: a checkpoint, no row
+        if checkpoint_dir:
+          partial = {"iterations": first + length, "time": time_before + time.time() - t0,
+                     "metrics": _metrics_to_json(_join(partial_metrics))}
+          _save(checkpoint_dir, state, config, {**meta_base, "chunk": chunk, "history": history,
+                                                "partial": partial})
+        continue
       evals = jax.device_get(evals)
       env_steps = float(np.asarray(state.env_steps)[0])
       elapsed = time.time() - t0
@@ -197,23 +227,25 @@ def train(env: Any, objective: Objective, config: PPOConfig, *, seeds: Sequence[
       row = {"env_steps": env_steps, "time": time_before + elapsed, "steps_per_second": rate,
              "total_steps": float(total), "eta_seconds": (total - env_steps) / max(rate, 1e-9),
              "compile_seconds": compile_seconds}
-      per_seed = reduce_stats({k: np.asarray(v) for k, v in metrics.items()}, axis=1, xp=np)
+      per_seed = reduce_stats(_join(partial_metrics), axis=1, xp=np)
+      partial_metrics = []
       row.update({k: v.tolist() for k, v in per_seed.items()})  # over the chunk's iterations
       row.update({k: np.asarray(v).tolist() for k, v in evals.items()})
       history.append(row)
       if checkpoint_dir:
-        saved = state if config.checkpoint_env_state else state.replace(env_state=None)
-        checkpoint.save(checkpoint_dir, saved, {**meta_base, "chunk": chunk + 1,
-                                                "history": history,
-                                                "env_state": config.checkpoint_env_state})
+        _save(checkpoint_dir, state, config, {**meta_base, "chunk": chunk + 1,
+                                              "history": history})
       if report:
         report(row)
   except KeyboardInterrupt:
     if checkpoint_dir and checkpoint.exists(checkpoint_dir):
-      done = checkpoint.read_meta(checkpoint_dir)["chunk"]
-      print(f"[blx] interrupted; the checkpoint in {checkpoint_dir} holds {done}/"
-            f"{trainer.num_chunks} chunks: call train(..., checkpoint_dir={checkpoint_dir!r}, "
-            "resume=True) to continue", file=sys.stderr)
+      meta = checkpoint.read_meta(checkpoint_dir)
+      partial = meta.get("partial")
+      within = (f" and {partial['iterations']}/{per_chunk} iterations of the next"
+                if partial else "")
+      print(f"[blx] interrupted; the checkpoint in {checkpoint_dir} holds {meta['chunk']}/"
+            f"{trainer.num_chunks} chunks{within}: call train(..., checkpoint_dir="
+            f"{checkpoint_dir!r}, resume=True) to continue", file=sys.stderr)
     raise
 
   return TrainResult(params=policy_params(state), metrics=history, policy=trainer.policy, state=state)
@@ -228,6 +260,67 @@ def run_keys(seeds: Sequence[int]) -> tuple[jax.Array, jax.Array]:
   keys = jnp.stack([jax.random.PRNGKey(s) for s in seeds])
   return (jax.vmap(lambda k: jax.random.split(k)[0])(keys),
           jax.vmap(lambda k: jax.random.split(k)[1])(keys))
+
+
+CHECKPOINT_SEGMENTS_ENV = "BLX_CHECKPOINT_SEGMENTS"
+
+
+def segment_length(iterations_per_chunk: int, segments: int | None = None) -> int:
+  """The iterations of one segment of a chunk cut into ``segments`` (``train``'s
+  ``checkpoint_segments``; None: ``$BLX_CHECKPOINT_SEGMENTS``, else 1): ``ceil(iterations /
+  segments)``, the last segment of a chunk taking what is left. Refuses a number that is not a
+  whole number from 1 to the chunk's iterations, naming where it came from."""
+  where = "checkpoint_segments"
+  if segments is None:
+    setting = os.environ.get(CHECKPOINT_SEGMENTS_ENV, "").strip()
+    where = f"${CHECKPOINT_SEGMENTS_ENV}"
+    try:
+      segments = int(setting) if setting else 1
+    except ValueError:
+      raise ValueError(f"{where}={setting!r}: give a whole number of segments per chunk, 1 to "
+                       f"{iterations_per_chunk} (this run's iterations per chunk)") from None
+  if isinstance(segments, bool) or not isinstance(segments, (int, np.integer)) or not (
+      1 <= segments <= iterations_per_chunk):
+    raise ValueError(f"{where}={segments!r}: give a whole number of segments per chunk, 1 to "
+                     f"{iterations_per_chunk} (this run's iterations per chunk)")
+  return -(-iterations_per_chunk // int(segments))
+
+
+def _segments(start_chunk: int, done: int, num_chunks: int, per_chunk: int, segment: int) -> list:
+  """The segments left of a run, each ``(chunk, its first iteration in the chunk, iterations)``:
+  each chunk cut at the multiples of ``segment``, from iteration ``done`` of ``start_chunk`` on
+  (a resume mid-chunk, perhaps with another segment than it stopped with)."""
+  out = []
+  for chunk in range(start_chunk, num_chunks):
+    first = done if chunk == start_chunk else 0
+    while first < per_chunk:
+      end = min(first - first % segment + segment, per_chunk)
+      out.append((chunk, first, end - first))
+      first = end
+  return out
+
+
+def _join(parts: list[dict]) -> dict:
+  """Per-iteration metrics of consecutive segments (each ``[seeds, iterations]``), joined along
+  the iterations."""
+  return {k: np.concatenate([p[k] for p in parts], axis=1) for k in parts[0]}
+
+
+def _metrics_to_json(metrics: dict) -> dict:
+  return {k: {"dtype": str(v.dtype), "values": v.tolist()} for k, v in metrics.items()}
+
+
+def _metrics_from_json(data: dict) -> dict:
+  return {k: np.asarray(v["values"], dtype=v["dtype"]) for k, v in data.items()}
+
+
+def _save(directory: str, state: TrainState, config: PPOConfig, meta: dict) -> None:
+  """A checkpoint of ``state`` (without the envs' state where the config says so) and ``meta``,
+  with the env steps the state has trained."""
+  saved = state if config.checkpoint_env_state else state.replace(env_state=None)
+  env_steps = float(np.asarray(state.env_steps).reshape(-1)[0])
+  checkpoint.save(directory, saved, {**meta, "env_state": config.checkpoint_env_state,
+                                     "env_steps": env_steps})
 
 
 def _as_compiled_for(compiled: Any, *args) -> tuple:

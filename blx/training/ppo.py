@@ -89,8 +89,10 @@ class Trainer(NamedTuple):
 
   Attributes:
     init: ``key -> TrainState``.
-    chunk: ``TrainState -> (TrainState, metrics)``, ``iterations_per_chunk`` iterations; metrics have
-      a leading ``[iterations_per_chunk]`` axis. One iteration is ``update(*collect(state))``.
+    chunk: ``(TrainState, length=iterations_per_chunk) -> (TrainState, metrics)``, ``length``
+      iterations (a static int: a chunk run in segments, ``train(checkpoint_segments=...)``, is
+      the same iterations); metrics have a leading ``[length]`` axis. One iteration is
+      ``update(*collect(state))``.
     collect: ``TrainState -> (TrainState, Rollout)``: the rollout half of an iteration (policy,
       physics, the objective's reward); sequences ``[num_unrolls * num_envs, unroll_length]``.
     update: ``(TrainState, Rollout) -> (TrainState, metrics)``: the learning half (normaliser,
@@ -105,7 +107,7 @@ class Trainer(NamedTuple):
   """
 
   init: Callable[[jax.Array], TrainState]
-  chunk: Callable[[TrainState], tuple[TrainState, dict]]
+  chunk: Callable[..., tuple[TrainState, dict]]
   collect: Callable[[TrainState], tuple[TrainState, "Rollout"]]
   update: Callable[[TrainState, "Rollout"], tuple[TrainState, dict]]
   evaluate: Callable[[PolicyParams, jax.Array], dict]
@@ -571,8 +573,8 @@ def make_trainer(env: Any, objective: Objective, config: PPOConfig) -> Trainer:
     with jax.named_scope("update"):
       return update_fn(state, data)
 
-  def chunk(state: TrainState):
-    return jax.lax.scan(iteration, state, None, length=iterations_per_chunk)
+  def chunk(state: TrainState, length: int = iterations_per_chunk):
+    return jax.lax.scan(iteration, state, None, length=length)
 
   def evaluate_fn(params: PolicyParams, key: jax.Array) -> dict:
     return evaluate(learner, eval_env, eval_steps, params, key)

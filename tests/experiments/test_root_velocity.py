@@ -112,7 +112,10 @@ def test_the_json_names_the_runs_settings_and_how_far_it_had_trained(monkeypatch
     return SimpleNamespace(spec=spec, env=envs.episode(_Runner(), 8), policy=policy,
                            params={"w": jnp.zeros((2,))}, meta=meta)
   out = tmp_path / "velocity.json"
-  for meta, env_steps in (({"history": [{"env_steps": 1e6}, {"env_steps": 2e6}]}, 2e6),
+  history = [{"env_steps": 1e6}, {"env_steps": 2e6}]
+  for meta, env_steps in (({"history": history}, 2e6),
+                          # a checkpoint within a chunk, past the last evaluation
+                          ({"history": history, "env_steps": 2.5e6}, 2.5e6),
                           ({}, None)):   # no history: how far it trained is not known
     monkeypatch.setattr(root_velocity.common.runs, "load_run", lambda directory: run(meta))
     monkeypatch.setattr("sys.argv", ["root_velocity.py", str(tmp_path), "--episodes", "2",

@@ -1,0 +1,101 @@
+"""A chunk run in segments (``train(checkpoint_segments=...)``): the same run, checkpointed within
+the chunk, and resumed from there, with the same or another cut."""
+
+from __future__ import annotations
+
+import shutil
+
+import jax
+import numpy as np
+import pytest
+
+from blx import envs, training
+from blx.training import checkpoint
+from tests.training.tiny import SMALL, reach_latent
+
+# two chunks of five iterations each
+CONFIG = SMALL.replace(num_timesteps=2 * 5 * SMALL.env_steps_per_iteration, num_evals=2)
+# the row's wall-clock entries, which no two runs share
+CLOCK = ("time", "steps_per_second", "eta_seconds", "compile_seconds")
+
+
+def _env():
+  return envs.create("point", episode_length=20)
+
+
+def _same_run(a, b):
+  for x, y in zip(jax.tree.leaves(a.state), jax.tree.leaves(b.state), strict=True):
+    np.testing.assert_array_equal(x, y)
+  assert len(a.metrics) == len(b.metrics) == 2
+  for row_a, row_b in zip(a.metrics, b.metrics):
+    assert {k: v for k, v in row_a.items() if k not in CLOCK} == (
+        {k: v for k, v in row_b.items() if k not in CLOCK})
+
+
+def test_a_chunk_in_segments_is_the_same_run_and_resumes_from_within_a_chunk(tmp_path, monkeypatch):
+  env = _env()
+  assert training.make_trainer(env, reach_latent(), CONFIG).iterations_per_chunk == 5
+  whole = training.train(env, reach_latent(), CONFIG, progress=False)
+  # a segment of one iteration, checkpointed after each: the same iterations, the same rows
+  _same_run(whole, training.train(env, reach_latent(), CONFIG, progress=False,
+                                  checkpoint_dir=str(tmp_path / "ones"), checkpoint_segments=5))
+
+  # Two segments (the chunk's 5 iterations cut into 3 + 2): stopped, as a device call's time
+  # limit stops it, after the checkpoint of the second chunk's first segment.
+  saves, save = [], checkpoint.save
+
+  def save_then_stop(directory, tree, meta, **kwargs):
+    save(directory, tree, meta, **kwargs)
+    saves.append((meta["chunk"], (meta.get("partial") or {}).get("iterations")))
+    if len(saves) == 3:
+      raise KeyboardInterrupt
+
+  monkeypatch.setattr(checkpoint, "save", save_then_stop)
+  directory = str(tmp_path / "ckpt")
+  with pytest.raises(KeyboardInterrupt):
+    training.train(env, reach_latent(), CONFIG, progress=False, checkpoint_dir=directory,
+                   checkpoint_segments=2)
+  monkeypatch.setattr(checkpoint, "save", save)
+  # within the first chunk after iteration 3, its end, within the second after iteration 3
+  assert saves == [(0, 3), (1, None), (1, 3)]
+  meta = checkpoint.read_meta(directory)
+  assert meta["env_steps"] == 8 * CONFIG.env_steps_per_iteration and len(meta["history"]) == 1
+  # the first three iterations' statistics are kept for the chunk's row
+  assert np.shape(meta["partial"]["metrics"]["loss/total"]["values"]) == (1, 3)
+
+  # Resumed with another cut (segments of one iteration: the second chunk's fourth, then its
+  # fifth), the run ends as the uninterrupted one, bit for bit, and its second row, a mean over
+  # all five of the chunk's iterations, is the same.
+  kept = str(tmp_path / "kept")
+  shutil.copytree(directory, kept)
+  resumed = training.train(env, reach_latent(), CONFIG, progress=False, checkpoint_dir=directory,
+                           resume=True, checkpoint_segments=5)
+  _same_run(whole, resumed)
+  assert "partial" not in checkpoint.read_meta(directory)
+  assert resumed.metrics[1]["time"] > meta["partial"]["time"]
+  # and with no segments (the chunk's last two iterations in one)
+  _same_run(whole, training.train(env, reach_latent(), CONFIG, progress=False,
+                                  checkpoint_dir=kept, resume=True))
+
+
+@pytest.mark.parametrize("segments, message", [
+    (0, "checkpoint_segments=0: give a whole number of segments per chunk, 1 to 4 (this run's"),
+    (5, "checkpoint_segments=5: give a whole number"),
+    (2.0, "checkpoint_segments=2.0: give a whole number"),
+    (True, "checkpoint_segments=True"),
+])
+def test_a_bad_number_of_segments_is_named_with_the_valid_ones(segments, message):
+  with pytest.raises(ValueError, match=message.replace("(", r"\(")):
+    training.segment_length(4, segments)
+
+
+def test_the_number_of_segments_comes_from_the_environment_where_not_given(monkeypatch):
+  monkeypatch.delenv("BLX_CHECKPOINT_SEGMENTS", raising=False)
+  assert training.segment_length(10) == 10   # one segment: the whole chunk
+  monkeypatch.setenv("BLX_CHECKPOINT_SEGMENTS", "4")
+  assert training.segment_length(10) == 3    # 3 + 3 + 3 + 1
+  assert training.segment_length(10, 2) == 5   # an argument wins
+  monkeypatch.setenv("BLX_CHECKPOINT_SEGMENTS", "half")
+  with pytest.raises(ValueError, match=r"\$BLX_CHECKPOINT_SEGMENTS='half': give a whole number "
+                                       r"of segments per chunk, 1 to 10"):
+    training.segment_length(10)
