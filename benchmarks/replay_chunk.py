@@ -65,9 +65,13 @@ def replay(run_dir: str, seed: int, iterations: int | None = None, *, show: bool
   iterations = trainer.iterations_per_chunk if iterations is None else iterations
   if iterations < 1:
     raise SystemExit(f"replay_chunk: --iterations {iterations}: give at least 1")
-  first = int(meta["chunk"]) * trainer.iterations_per_chunk
+  # the state's own count: a checkpoint written within a chunk (train's checkpoint_segments) is
+  # past the chunk's start
+  first = int(state.iteration)
   if show:
-    print(f"seed {seed} from the checkpoint after chunk {meta['chunk']} (iteration {first}, "
+    within = first - int(meta["chunk"]) * trainer.iterations_per_chunk
+    print(f"seed {seed} from the checkpoint after chunk {meta['chunk']}"
+          f"{f' and {within} iterations of the next' if within else ''} (iteration {first}, "
           f"{float(state.env_steps):,.0f} env steps), {iterations} iterations on "
           f"{jax.devices()[0].platform}", flush=True)
   collect, update = jax.jit(trainer.collect), jax.jit(trainer.update)

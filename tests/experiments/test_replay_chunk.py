@@ -1,6 +1,7 @@
 """benchmarks/replay_chunk.py: one seed of a run, replayed from its checkpoint."""
 
 import os
+import shutil
 
 import jax
 import numpy as np
@@ -62,3 +63,21 @@ def test_a_directory_without_a_run_or_a_checkpoint_is_one_line_of_error(tmp_path
     replay_chunk.main([str(tmp_path), "--seed", "0"])
   assert e.value.code == 2
   assert "is not a blx run directory (no config.json)" in capsys.readouterr().err
+
+
+def test_a_checkpoint_within_a_chunk_replays_from_its_own_iteration(stopped_and_whole, tmp_path,
+                                                                     monkeypatch, capsys):
+  # The stopped run's checkpoint, moved one iteration on as a run in segments
+  # (train(checkpoint_segments=...)) checkpoints within a chunk: the replay counts from there.
+  stopped = str(tmp_path / "stopped")
+  shutil.copytree(stopped_and_whole[0], stopped)
+  trainer, state, meta = replay_chunk.seed_state(stopped, 1)
+  per_chunk = trainer.iterations_per_chunk
+  _, _, moved = replay_chunk.replay(stopped, 1, 1, show=False)
+  whole = jax.tree.map(lambda x: np.stack([x, x]), moved)   # both seeds' places
+  checkpoint.save(os.path.join(stopped, "checkpoint"), whole,
+                  {**meta, "partial": {"iterations": 1, "time": 1.0, "metrics": {}}})
+  rows, error, _ = replay_chunk.replay(stopped, 1, 2, show=True)
+  assert error is None and [r["iteration"] for r in rows] == [per_chunk + 1, per_chunk + 2]
+  assert (f"after chunk 1 and 1 iterations of the next (iteration {per_chunk + 1}"
+          in capsys.readouterr().out)
