@@ -21,7 +21,7 @@ sampled unless ``--deterministic``, no reset after a fall), read over the scored
 - ``upside_down``: the share of states with the root's up axis below the horizon.
 ``summary`` holds the mean and std over seeds of each; the circular ones are averaged as angles.
 The JSON also names the run's env, its PPO settings over its row's (``ppo``) and the env steps per
-seed its checkpoint had trained (``env_steps``: an unfinished run's last whole chunk).
+seed its checkpoint had trained (``env_steps``: an unfinished run's last checkpoint's).
 """
 
 from __future__ import annotations
