@@ -33,6 +33,7 @@ def _same_run(a, b):
 
 
 def test_a_chunk_in_segments_is_the_same_run_and_resumes_from_within_a_chunk(tmp_path, monkeypatch):
+  monkeypatch.delenv("BLX_CHECKPOINT_SEGMENTS", raising=False)   # "none" below means none
   env = _env()
   assert training.make_trainer(env, reach_latent(), CONFIG).iterations_per_chunk == 5
   whole = training.train(env, reach_latent(), CONFIG, progress=False)
