@@ -169,7 +169,7 @@ def train(env: Any, objective: Objective, config: PPOConfig, *, seeds: Sequence[
   total = trainer.num_chunks * per_chunk * trainer.env_steps_per_iteration
   pieces = _segments(start_chunk, done_in_chunk, trainer.num_chunks, per_chunk, segment)
   t0 = time.time()
-  steps0 = float(np.asarray(state.env_steps).reshape(-1)[0])
+  steps0 = _env_steps(state)
   # Compiled ahead of the first chunk, so that the reported steps/s and ETA leave compilation out
   # ("time" in the metrics is the wall time since the start, compilation included).
   segment_fns = {}   # iterations -> the program that runs them: at most three lengths
@@ -221,7 +221,7 @@ def train(env: Any, objective: Objective, config: PPOConfig, *, seeds: Sequence[
                                                 "partial": partial})
         continue
       evals = jax.device_get(evals)
-      env_steps = float(np.asarray(state.env_steps)[0])
+      env_steps = _env_steps(state)
       elapsed = time.time() - t0
       rate = (env_steps - steps0) / max(elapsed - compile_seconds, 1e-9)
       row = {"env_steps": env_steps, "time": time_before + elapsed, "steps_per_second": rate,
@@ -272,13 +272,10 @@ def segment_length(iterations_per_chunk: int, segments: int | None = None) -> in
   whole number from 1 to the chunk's iterations, naming where it came from."""
   where = "checkpoint_segments"
   if segments is None:
-    setting = os.environ.get(CHECKPOINT_SEGMENTS_ENV, "").strip()
     where = f"${CHECKPOINT_SEGMENTS_ENV}"
-    try:
-      segments = int(setting) if setting else 1
-    except ValueError:
-      raise ValueError(f"{where}={setting!r}: give a whole number of segments per chunk, 1 to "
-                       f"{iterations_per_chunk} (this run's iterations per chunk)") from None
+    setting = os.environ.get(CHECKPOINT_SEGMENTS_ENV, "").strip()
+    # a setting that is not a whole number stays text, which the check below refuses
+    segments = int(setting) if setting.isdecimal() else (setting or 1)
   if isinstance(segments, bool) or not isinstance(segments, (int, np.integer)) or not (
       1 <= segments <= iterations_per_chunk):
     raise ValueError(f"{where}={segments!r}: give a whole number of segments per chunk, 1 to "
@@ -318,9 +315,13 @@ def _save(directory: str, state: TrainState, config: PPOConfig, meta: dict) -> N
   """A checkpoint of ``state`` (without the envs' state where the config says so) and ``meta``,
   with the env steps the state has trained."""
   saved = state if config.checkpoint_env_state else state.replace(env_state=None)
-  env_steps = float(np.asarray(state.env_steps).reshape(-1)[0])
   checkpoint.save(directory, saved, {**meta, "env_state": config.checkpoint_env_state,
-                                     "env_steps": env_steps})
+                                     "env_steps": _env_steps(state)})
+
+
+def _env_steps(state: TrainState) -> float:
+  """The env steps per seed the vmapped ``state`` has trained (every seed's are the same)."""
+  return float(np.asarray(state.env_steps)[0])
 
 
 def _as_compiled_for(compiled: Any, *args) -> tuple:
