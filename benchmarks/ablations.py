@@ -25,7 +25,9 @@ Studies (``--list`` prints them):
   ``ant_push`` with the ball's velocity term scaled by 1 (the env's default), 0.2 and 0.5, and of
   ``pro_ant_run(step="blx")`` with 4 (the registered env's), 2, 3, 8 and 10 legs, compared by
   episode score (the paper: Ant Push is sensitive to the scale; running is consistent except with
-  two legs). The original's sweeps at the paper's commit trained each point for the ant's PPO row
+  two legs), with the episode length and, during training, the env reward per step of the
+  training rollouts beside it (an evaluation's episodes are one episode where the reset has no
+  noise). The original's sweeps at the paper's commit trained each point for the ant's PPO row
   (30 M steps, ``ant_push_sweep.py``) and the row x 10 (300 M, ``ant_run_morphology_sweep.py``);
   ``--steps`` trains another budget, and the report then says so. ``legs`` runs blx's faster step
   (4 substeps of 5 ms), the env's default until session 28;
@@ -151,7 +153,11 @@ _THREE_LEGS = {"components.agent1.component_params.num_legs": 3}
 PRO_ANT_ORIGINAL_STEP = {f"global_options.{k}": v for k, v in PRO_ANT_STEPS["original"].items()}
 # A Composer task's score sums a per-step term, so an episode cut short by a fall scores higher:
 # the length is read beside it.
-_TASK_METRICS = ("eval/episode_score", "eval/episode_length")
+# A task study's evaluation takes the mean action from a reset without noise: a seed's episodes are
+# one episode repeated, which can dip for one evaluation; the training reward (the sampled policy
+# over every env, each chunk) is tabulated and drawn beside it (RESULTS, session 57). Not the
+# paper's metric, and not in eval.json: the final evaluations compare the first two alone.
+_TASK_METRICS = ("eval/episode_score", "eval/episode_length", "train/env_reward")
 
 STUDIES = {
     "sn_diayn": Study("mimax", ("diayn",), "spectral_norm", (True, False),
@@ -206,6 +212,7 @@ LABELS = {"eval/mi": "MI(s, z)", "eval/entropy": "H(s)", "eval/lgr": "LGR (lower
           "eval/episode_env_reward": "episode env reward",
           "eval/episode_score": "episode score (the reward without its offsets)",
           "eval/episode_length": "episode length (steps; short: the body fell)",
+          "train/env_reward": "env reward per step in training\n(sampled actions, every env)",
           "eval/mode_balance": "mode balance (1: an even split; 0: one mode)"}
 
 

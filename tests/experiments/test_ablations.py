@@ -59,8 +59,9 @@ def test_the_composer_sweeps_vary_their_scenes_parameter_on_the_originals_budget
   points = sweep.expand(ablations.spec(study, "ant", 10))
   assert [study.value(s) for _, s in points] == list(study.values)
   # An episode that ends early (the body fell or flipped) sums fewer per-step scores, all negative,
-  # so its score looks better: the length is tabulated and drawn beside it.
-  assert study.metrics == ("eval/episode_score", "eval/episode_length")
+  # so its score looks better: the length is tabulated and drawn beside it; and a seed's evaluation
+  # is one episode, so the training reward is too.
+  assert study.metrics == ("eval/episode_score", "eval/episode_length", "train/env_reward")
   assert all(m in ablations.LABELS for m in study.metrics)
   registered = inspect.signature(getattr(descs, scene)).parameters[study.option].default
   assert study.values[0] == registered  # the first arm is the registered env
@@ -605,6 +606,45 @@ def test_a_report_names_the_ppo_settings_its_arms_trained_with_over_the_row(tmp_
   rows = [r for r in table.splitlines() if "eval/episode_score" in r]
   assert "(trained with the row's entropy_cost)" in rows[0]
   assert "trained with" not in rows[1]
+
+
+def test_a_task_study_compares_the_training_reward_where_one_episodes_score_dips(tmp_path):
+  # A task study's evaluation is one episode per seed (the mean action from a reset without
+  # noise): one seed's dip can hide a difference the training reward, over every env, still shows
+  # (RESULTS, session 57: four against three legs at 75 M, score p 0.57, training reward p < 0.001).
+  import types
+  from blx.experiments import runs
+  study = ablations.STUDIES["legs_original"]
+  spec = ablations.spec(study, "ant", 4, steps=3000, config={"num_evals": 1})
+  (four, four_spec), (two, two_spec) = sweep.expand(spec)[:2]
+  arms = {four: ([-250.0, -260.0, -240.0, -2200.0], [4.6, 4.65, 4.62, 4.55]),
+          two: ([-700.0, -650.0, -720.0, -690.0], [4.1, 4.2, 4.15, 4.18])}
+  for name, run_spec in ((four, four_spec), (two, two_spec)):
+    runs.write_config(str(tmp_path / name), run_spec, types.SimpleNamespace(desc={}))
+    scores, rewards = arms[name]
+    with open(tmp_path / name / "metrics.csv", "w", newline="") as f:
+      w = csv.DictWriter(f, ["seed", "env_steps", "eval/episode_score", "eval/episode_length",
+                             "train/env_reward"])
+      w.writeheader()
+      for seed, (score, reward) in enumerate(zip(scores, rewards)):
+        w.writerow({"seed": seed, "env_steps": 3000, "eval/episode_score": score,
+                    "eval/episode_length": 1000.0, "train/env_reward": reward})
+  table = ablations.report("legs_original", study, str(tmp_path), spec)
+  p = {row.split(" | ")[1]: row.rstrip(" |").rsplit(" | ", 1)[-1]
+       for row in table.split("Welch t vs first")[1].split("\n\n")[0].splitlines()
+       if row.startswith(f"| {study.label(two, two_spec)}")}
+  assert float(p["eval/episode_score"]) > 0.3      # the dip hides the difference in the score
+  assert p["train/env_reward"] == "< 0.001"        # the training reward shows it
+  # an arm finished (eval.json, which has no training reward) compares its final evaluations by
+  # the evaluation's own metrics only
+  for name in (four, two):
+    scores, _ = arms[name]
+    with open(tmp_path / name / "eval.json", "w") as f:
+      json.dump({"objective": "task", "per_seed": {"eval/episode_score": scores,
+                                                   "eval/episode_length": [1000.0] * 4}}, f)
+  table = ablations.report("legs_original", study, str(tmp_path), spec)
+  finals = table.split("\n\n")[0]
+  assert "eval/episode_score" in finals and "train/env_reward" not in finals
 
 
 def test_references_named_twice_or_too_many_are_refused_before_anything_trains(
