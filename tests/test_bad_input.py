@@ -82,6 +82,7 @@ PPO_BAD = {
     "normalize_latent": ["yes", 1, None],
     "staggered_starts": ["yes", 1, "auto"],
     "checkpoint_env_state": ["no", 0, None],
+    "eval_actions": ["greedy", "Mean", "", None, 1, True],
     "policy_hidden": [(), (0,), "32", (1.5,), (32, -1), 32],
     "value_hidden": [(), (0,), "32", (1.5,), (32, -1), 32],
 }

@@ -228,18 +228,31 @@ def cmd_eval(args) -> int:
   if args.metrics_only and key_seeds is None:
     raise UsageError("--metrics-only applies with --key-seeds: eval.json always holds every "
                      "metric")
+  actions = _eval_actions(args.eval_actions)
   run = runs.load_run(args.dir)
-  if key_seeds is None:
+  own = run.config.eval_actions
+  # another way of acting than the run's own: evaluated and reported, eval.json kept as the run's
+  other = actions not in (None, own)
+  if other:
+    run = run._replace(config=run.config.replace(eval_actions=actions))
+  if key_seeds is None and not other:
     result = runs.write_eval(run)
+  elif key_seeds is None:
+    values = runs.evaluate_run(run)
+    result = {"per_seed": values, "summary": runs.summarise(values), "eval_actions": actions}
+    print(f"[blx] evaluated with eval_actions={actions!r}; eval.json (the run's own, "
+          f"{own!r}) is left as it was", file=sys.stderr)
   else:
     result = across_keys(key_seeds, runs.evaluate_run_keys(run, key_seeds,
                                                            metrics_only=args.metrics_only))
-    print(f"[blx] evaluated with evaluation keys {key_seeds}; eval.json (key 0) is left as it "
-          "was", file=sys.stderr)
+    print(f"[blx] evaluated with evaluation keys {key_seeds}"
+          + (f" and eval_actions={actions!r}" if other else "")
+          + "; eval.json (key 0) is left as it was", file=sys.stderr)
   if args.json:
     print(json.dumps(result, indent=2))
   elif key_seeds is None:
-    print(f"{run.spec.objective} on {run.spec.env}, seeds {list(run.spec.seeds)}")
+    print(f"{run.spec.objective} on {run.spec.env}, seeds {list(run.spec.seeds)}"
+          + (f", eval_actions={actions!r}" if other else ""))
     _print_summary(result["summary"])
   else:
     print(f"{run.spec.objective} on {run.spec.env}, seeds {list(run.spec.seeds)}: the mean over "
@@ -251,6 +264,16 @@ def cmd_eval(args) -> int:
       print(f"{key:{width}s}  {means}   ± {s['std_of_mean']:.4f}   per seed ± "
             f"{s['seed_std']:.4f}")
   return 0
+
+
+def _eval_actions(text: str | None) -> str | None:
+  """``blx eval --eval-actions``: None (the run's own), or one of ``PPOConfig.eval_actions``'s
+  values, checked before the run is loaded and compiled."""
+  from blx.training.config import EVAL_ACTIONS
+  if text is not None and text not in EVAL_ACTIONS:
+    raise UsageError(f"--eval-actions {text!r}: give one of {', '.join(EVAL_ACTIONS)} (the mean "
+                     "action, blx's default, or sampled actions, as Braxlines' PPO evaluates)")
+  return text
 
 
 def _key_seeds(text: str) -> list[int]:
@@ -440,6 +463,10 @@ def _parser() -> argparse.ArgumentParser:
                  help="with --key-seeds: the objective's metrics alone (MI, H(s), LGR, energy "
                       "distance, ...), without the trainer's return episodes (num_eval_envs per "
                       "seed), which cost most of an evaluation on a CPU")
+  p.add_argument("--eval-actions", default=None, metavar="mean|sampled",
+                 help="how the return episodes act, where not as the run's config (its "
+                      "eval_actions; blx's default is mean): sampled evaluates as Braxlines' PPO; "
+                      "eval.json is then not written")
   p.set_defaults(fn=cmd_eval)
 
   p = sub.add_parser("render", help="a video of rollouts (one per skill for MI-max)")

@@ -357,8 +357,9 @@ def check_eval_protocol(directory: str, eval_metrics: bool, eval_protocol: str |
 
 def evaluate_run(run: Run, *, key_seed: int = 0) -> dict[str, list[float]]:
   """The final metrics of every seed: MI-max -> MI, H(s), LGR, coverage; D-min -> energy
-  distance; always the episode reward and score of deterministic episodes. ``key_seed`` seeds the
-  evaluation's own sampling (its episodes' starts, sampled actions, goals); eval.json's is 0."""
+  distance; always the episode reward and score of the trainer's return episodes (mean or sampled
+  actions, as ``run.config.eval_actions``). ``key_seed`` seeds the evaluation's own sampling (its
+  episodes' starts, sampled actions, goals); eval.json's is 0."""
   return evaluate_run_keys(run, (key_seed,))[0]
 
 

@@ -12,6 +12,8 @@ from blx.options import check_names
 __all__ = ["PPOConfig", "ppo_defaults", "check_seeds", "off_row", "off_row_text"]
 
 MAX_INT = 2**31 - 1  # step and iteration counters are 32-bit on the device
+# How the evaluation after each chunk acts (``PPOConfig.eval_actions``): blx's default first.
+EVAL_ACTIONS = ("mean", "sampled")
 ORIGINAL_NUM_ENVS = 2048  # Braxlines' num_envs in every row of its defaults
 
 
@@ -53,6 +55,16 @@ class PPOConfig:
   carried to another machine. A run resumed from such a checkpoint starts every
   env on a new episode, reset as at the start of training; that is the one way it differs from an
   uninterrupted run.
+
+  ``eval_actions``: how the ``num_eval_envs`` episodes of the evaluation after each chunk
+  (``eval/episode_reward``, ``eval/episode_score``, ...) act. ``"mean"`` (the default, blx's; a
+  deviation from the original) takes the policy's mean action: where the env's reset has no noise
+  and the objective no latent (a Composer task such as ``pro_ant_run``) every episode is then the
+  same episode, one trajectory per seed. ``"sampled"`` samples the actions, as Braxlines' PPO does
+  (its evaluation on 128 envs samples from the policy, braxlines/training/ppo.py at the paper's
+  commit), so that the evaluation averages over the policy's episodes. The paper's metrics (MI,
+  LGR, energy distance) have evaluators of their own, which sample as the paper's, whichever this
+  is. A setting of the evaluation, not of learning; a resumed run keeps the one it began with.
   """
 
   num_timesteps: int = 30_000_000
@@ -77,6 +89,7 @@ class PPOConfig:
   value_hidden: tuple[int, ...] = (256, 256, 256, 256, 256)
   num_evals: int = 20
   num_eval_envs: int = 128
+  eval_actions: str = "mean"
 
   def __post_init__(self):
     positive = ("num_timesteps", "num_envs", "unroll_length",
@@ -104,6 +117,10 @@ class PPOConfig:
                  "checkpoint_env_state"):
       if not isinstance(getattr(self, name), bool):
         raise ValueError(f"PPOConfig.{name} must be True or False, got {getattr(self, name)!r}")
+    if self.eval_actions not in EVAL_ACTIONS:
+      valid = ", ".join(map(repr, EVAL_ACTIONS))
+      raise ValueError(f"PPOConfig.eval_actions must be one of {valid} (the mean action, blx's "
+                       f"default, or sampled actions, the original's), got {self.eval_actions!r}")
     if not (self.staggered_starts is None or isinstance(self.staggered_starts, bool)):
       raise ValueError(f"PPOConfig.staggered_starts must be True, False or None (chosen by "
                        f"num_envs), got {self.staggered_starts!r}")
@@ -226,7 +243,8 @@ def ppo_defaults(env_name: str | None = None, **overrides: Any) -> PPOConfig:
 
 
 # PPO settings that set a run's length and bookkeeping, not how it learns: ``off_row`` leaves them
-# out.
+# out. ``eval_actions`` is not among them: it changes what the run's curves measure, so a run
+# evaluated as the original ("sampled") says so wherever its settings are named.
 BOOKKEEPING = ("num_timesteps", "num_evals", "num_eval_envs", "checkpoint_env_state")
 
 

@@ -97,7 +97,8 @@ class Trainer(NamedTuple):
       physics, the objective's reward); sequences ``[num_unrolls * num_envs, unroll_length]``.
     update: ``(TrainState, Rollout) -> (TrainState, metrics)``: the learning half (normaliser,
       PPO and objective losses, SGD). Profilers time the halves apart.
-    evaluate: ``(PolicyParams, key) -> metrics`` from deterministic episodes on fresh envs.
+    evaluate: ``(PolicyParams, key) -> metrics`` from episodes on fresh envs (mean or sampled
+      actions, ``PPOConfig.eval_actions``).
     evaluation_episodes: ``(PolicyParams, key) -> (blx.envs.Episodes, score)``: ``evaluate``'s
       episodes unrun and ``score(records) -> metrics``, to step beside an evaluator's
       (``blx.envs.rollout_together``); ``evaluate`` is ``score`` of their records.
@@ -469,8 +470,9 @@ RETURN_KEYS = ("eval/episode_reward", "eval/episode_score", "eval/episode_length
 
 
 def evaluate(learner: Learner, env: Any, steps: int, params: PolicyParams, key: jax.Array) -> dict:
-  """Episode totals of ``num_eval_envs`` deterministic episodes of ``env`` (no auto-reset), at most
-  ``steps`` steps each: the objective's reward, the env's reward and its per-term metrics."""
+  """Episode totals of ``num_eval_envs`` episodes of ``env`` (no auto-reset), at most ``steps``
+  steps each, acting with the mean action or sampled ones (``PPOConfig.eval_actions``): the
+  objective's reward, the env's reward and its per-term metrics."""
   batch, score = evaluation_episodes(learner, env, steps, params, key)
   return score(envs_lib.rollout_together([batch])[0])
 
@@ -485,8 +487,9 @@ def evaluation_episodes(learner: Learner, env: Any, steps: int, params: PolicyPa
   env_state = jax.vmap(env.reset)(jax.random.split(reset_key, c.num_eval_envs))
   z = jax.vmap(objective.sample_latent)(jax.random.split(z_key, c.num_eval_envs))
 
-  def act(obs, _):
-    return policy(params, obs, z if objective.conditions_policy else None)
+  def act(obs, key):  # the mean action, or as the original, a sampled one (``eval_actions``)
+    return policy(params, obs, z if objective.conditions_policy else None, key=key,
+                  deterministic=c.eval_actions == "mean")
 
   def record(state, action, next_state):
     transition = Transition(state.obs, action, next_state.obs, next_state.reward, z)

@@ -100,6 +100,28 @@ def test_eval_with_several_keys_reports_the_evaluations_own_noise_and_keeps_eval
   assert any(line.startswith("eval/lgr ") and "per seed ±" in line for line in lines)
 
 
+def test_eval_with_sampled_actions_scores_the_original_protocol_and_keeps_eval_json(trained,
+                                                                                     capsys):
+  # The run evaluates with the mean action (blx's default); --eval-actions sampled scores the
+  # return episodes as Braxlines' PPO does, and leaves eval.json as the run's own evaluation.
+  path = os.path.join(trained, "eval.json")
+  before = open(path).read()
+  assert cli.main(["eval", trained, "--eval-actions", "sampled", "--json"]) == 0
+  out = capsys.readouterr()
+  sampled = json.loads(out.out)
+  assert "eval_actions='sampled'" in out.err and open(path).read() == before
+  own = json.loads(before)["per_seed"]
+  assert sampled["eval_actions"] == "sampled"
+  # the return episodes act otherwise; the paper's evaluator, which samples anyway, is unchanged
+  assert not np.allclose(sampled["per_seed"]["eval/episode_reward"], own["eval/episode_reward"])
+  for metric in ("eval/mi", "eval/entropy", "eval/lgr"):
+    np.testing.assert_allclose(sampled["per_seed"][metric], own[metric], rtol=1e-5, atol=1e-6)
+  # the run's own way of acting is its ordinary evaluation
+  assert cli.main(["eval", trained, "--eval-actions", "mean", "--json"]) == 0
+  assert json.loads(capsys.readouterr().out)["per_seed"] == json.loads(open(path).read())[
+      "per_seed"]
+
+
 def test_eval_metrics_only_gives_the_evaluators_values_without_the_return_episodes(trained,
                                                                                     capsys):
   assert cli.main(["eval", trained, "--key-seeds", "0", "--metrics-only", "--json"]) == 0
@@ -357,6 +379,8 @@ def test_a_task_sweeps_table_gives_the_episode_length_beside_the_score(tmp_path)
     (["eval", "anyrun", "--key-seeds", "1,1"], "--key-seeds '1,1': give distinct ints"),
     (["eval", "anyrun", "--key-seeds", "-1"], "--key-seeds '-1': give distinct ints"),
     (["eval", "anyrun", "--metrics-only"], "--metrics-only applies with --key-seeds"),
+    (["eval", "anyrun", "--eval-actions", "greedy"], "--eval-actions 'greedy': give one of mean, "
+                                                     "sampled"),
 ])
 def test_bad_input_is_one_line_and_exit_status_2(argv, message, capsys):
   assert cli.main(argv) == 2

@@ -297,6 +297,38 @@ def test_the_trainer_runs_the_env_as_given_with_its_episode_and_action_repeat():
   assert envs.registry.episode_length("ant") == 1000  # Braxlines' for the bodies
 
 
+def test_the_evaluation_takes_the_mean_action_or_samples_as_the_original():
+  # point_goal resets without noise and the task has no latent: with the mean action (blx's
+  # default) the evaluation's episodes are one episode repeated; sampled actions (Braxlines' PPO's
+  # evaluation) give as many episodes as envs, the same ones again for the same key.
+  env = envs.episode(envs.unwrap(point_goal()), 8)
+  params = None
+  totals = {}
+  for actions, key in (("mean", 1), ("sampled", 1), ("sampled", 1), ("sampled", 2)):
+    trainer = training.make_trainer(env, task(), SMALL.replace(num_eval_envs=4,
+                                                               eval_actions=actions))
+    if params is None:
+      params = training.policy_params(jax.jit(trainer.init)(jax.random.PRNGKey(0)))
+
+    @jax.jit
+    def episodes(params, key):
+      batch, score = trainer.evaluation_episodes(params, key)
+      records = envs.rollout_together([batch])[0]
+      return records[0]["eval/episode_env_reward"].sum(0), score(records)
+
+    per_env, score = episodes(params, jax.random.PRNGKey(key))
+    # the reported total is the mean of the episodes' totals
+    np.testing.assert_allclose(score["eval/episode_env_reward"], per_env.mean(), rtol=1e-5)
+    totals.setdefault(actions, []).append(np.asarray(per_env))
+  mean, = totals["mean"]
+  assert np.ptp(mean) == 0.0                        # four copies of one episode
+  first, again, other = totals["sampled"]
+  assert np.ptp(first) > 1e-3 and len(set(first.tolist())) == 4   # four episodes
+  np.testing.assert_array_equal(first, again)        # reproducible from its key
+  assert not np.allclose(first, other)               # another key, other episodes
+  assert not np.allclose(first, mean)
+
+
 def test_episode_settings_are_the_envs_and_bad_envs_are_named():
   with pytest.raises(ValueError, match="episode_length belong to the env, not to PPO"):
     training.ppo_defaults("point", episode_length=20)
