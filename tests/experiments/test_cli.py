@@ -77,17 +77,24 @@ def test_eval_reports_the_mimax_metrics_as_json(trained, capsys):
   assert result["summary"]["eval/mi"]["mean"] <= result["summary"]["eval/entropy"]["mean"] + 1e-5
 
 
-def test_eval_with_several_keys_reports_the_evaluations_own_noise_and_keeps_eval_json(trained,
-                                                                                       capsys):
+def _eval_keeping_eval_json(trained, capsys, *args):
+  """``blx eval TRAINED ARGS --json``: its result, what it told stderr and the run's eval.json,
+  which it must leave as it was."""
   path = os.path.join(trained, "eval.json")
   before = open(path).read()
-  assert cli.main(["eval", trained, "--key-seeds", "0,1,2", "--json"]) == 0
+  assert cli.main(["eval", trained, *args, "--json"]) == 0
   out = capsys.readouterr()
-  result = json.loads(out.out)
-  assert "eval.json (key 0) is left as it was" in out.err and open(path).read() == before
+  assert open(path).read() == before
+  return json.loads(out.out), out.err, json.loads(before)
+
+
+def test_eval_with_several_keys_reports_the_evaluations_own_noise_and_keeps_eval_json(trained,
+                                                                                       capsys):
+  result, told, own = _eval_keeping_eval_json(trained, capsys, "--key-seeds", "0,1,2")
+  assert "eval.json (key 0) is left as it was" in told
   assert result["key_seeds"] == [0, 1, 2] and len(result["per_key"]) == 3
   # key 0 is the evaluation eval.json holds; the other keys sample other episodes
-  assert result["per_key"][0]["per_seed"] == json.loads(before)["per_seed"]
+  assert result["per_key"][0]["per_seed"] == own["per_seed"]
   lgr = [k["per_seed"]["eval/lgr"] for k in result["per_key"]]
   assert lgr[1] != lgr[0] and lgr[2] != lgr[1]
   row = result["across_keys"]["eval/lgr"]
@@ -104,22 +111,16 @@ def test_eval_with_sampled_actions_scores_the_original_protocol_and_keeps_eval_j
                                                                                      capsys):
   # The run evaluates with the mean action (blx's default); --eval-actions sampled scores the
   # return episodes as Braxlines' PPO does, and leaves eval.json as the run's own evaluation.
-  path = os.path.join(trained, "eval.json")
-  before = open(path).read()
-  assert cli.main(["eval", trained, "--eval-actions", "sampled", "--json"]) == 0
-  out = capsys.readouterr()
-  sampled = json.loads(out.out)
-  assert "eval_actions='sampled'" in out.err and open(path).read() == before
-  own = json.loads(before)["per_seed"]
-  assert sampled["eval_actions"] == "sampled"
+  sampled, told, own = _eval_keeping_eval_json(trained, capsys, "--eval-actions", "sampled")
+  assert "eval_actions='sampled'" in told and sampled["eval_actions"] == "sampled"
+  own = own["per_seed"]
   # the return episodes act otherwise; the paper's evaluator, which samples anyway, is unchanged
   assert not np.allclose(sampled["per_seed"]["eval/episode_reward"], own["eval/episode_reward"])
   for metric in ("eval/mi", "eval/entropy", "eval/lgr"):
     np.testing.assert_allclose(sampled["per_seed"][metric], own[metric], rtol=1e-5, atol=1e-6)
   # the run's own way of acting is its ordinary evaluation
   assert cli.main(["eval", trained, "--eval-actions", "mean", "--json"]) == 0
-  assert json.loads(capsys.readouterr().out)["per_seed"] == json.loads(open(path).read())[
-      "per_seed"]
+  assert json.loads(capsys.readouterr().out)["per_seed"] == own
 
 
 def test_eval_metrics_only_gives_the_evaluators_values_without_the_return_episodes(trained,
