@@ -238,8 +238,7 @@ def cmd_eval(args) -> int:
   if key_seeds is None and not other:
     result = runs.write_eval(run)
   elif key_seeds is None:
-    values = runs.evaluate_run(run)
-    result = {"per_seed": values, "summary": runs.summarise(values), "eval_actions": actions}
+    result = {**runs.evaluation(run), "eval_actions": actions}
     print(f"[blx] evaluated with eval_actions={actions!r}; eval.json (the run's own, "
           f"{own!r}) is left as it was", file=sys.stderr)
   else:

@@ -35,8 +35,8 @@ from blx.training import checkpoint
 
 __all__ = ["FORMAT_VERSION", "RunSpec", "Run", "RunError", "build", "load_run", "write_config",
            "write_metrics_csv", "default_obs_indices", "evaluator_for", "evaluate_run",
-           "evaluate_run_keys", "summarise", "read_spec", "train_run", "write_eval", "Segment",
-           "this_machine", "read_provenance", "EVAL_PROTOCOLS", "check_eval_protocol"]
+           "evaluate_run_keys", "summarise", "read_spec", "train_run", "evaluation", "write_eval",
+           "Segment", "this_machine", "read_provenance", "EVAL_PROTOCOLS", "check_eval_protocol"]
 
 FORMAT_VERSION = 1
 PROVENANCE = "provenance.json"
@@ -488,18 +488,23 @@ def lgr_goals_switch(segments: list[Segment]) -> float | None:
   return None
 
 
-def write_eval(run: Run) -> dict:
-  """Evaluates every seed, writes ``eval.json`` (per seed and mean/std) and returns it.
+def evaluation(run: Run) -> dict:
+  """Every seed evaluated, as ``eval.json`` holds it (per seed and mean/std), not written.
 
   ``evaluated_on`` records the machine that evaluated (when, device, versions), which need not be
   the one that trained: a run's final evaluation can be taken up on another machine by ``blx
   eval``, and the episodes' physics differ in their last bits between CPU and GPU."""
   values = evaluate_run(run)
   machine = this_machine()
-  out = {"per_seed": values, "summary": summarise(values), "seeds": list(run.spec.seeds),
-         "objective": run.spec.objective, "env": run.spec.env,
-         "evaluated_on": {"date": machine.started, "device": machine.device,
-                          "platform": machine.platform, "device_count": machine.device_count,
-                          "versions": machine.versions, "lgr_goals": machine.lgr_goals}}
+  return {"per_seed": values, "summary": summarise(values), "seeds": list(run.spec.seeds),
+          "objective": run.spec.objective, "env": run.spec.env,
+          "evaluated_on": {"date": machine.started, "device": machine.device,
+                           "platform": machine.platform, "device_count": machine.device_count,
+                           "versions": machine.versions, "lgr_goals": machine.lgr_goals}}
+
+
+def write_eval(run: Run) -> dict:
+  """``evaluation(run)``, written to ``eval.json`` and returned."""
+  out = evaluation(run)
   _write_json(os.path.join(run.directory, "eval.json"), out)
   return out
