@@ -113,10 +113,8 @@ def main():
   # JSON, or gait_search.py --plot-legs, tells runs of one env apart
   # and how far it had trained: an unfinished run's policy is its last checkpoint's, which, where
   # it trained in segments (train(checkpoint_segments=...)), may be past its last evaluation
-  history = run.meta.get("history") or [{}]
   result = {"run": args.run, "env": run.spec.env, "env_params": run.spec.env_params or {},
-            "ppo": dict(run.spec.ppo or {}),
-            "env_steps": run.meta.get("env_steps", history[-1].get("env_steps")),
+            "ppo": dict(run.spec.ppo or {}), "env_steps": run.env_steps,
             "episodes": args.episodes,
             "deterministic": args.deterministic, "per_seed": {}}
   for i, position in enumerate(picked):

@@ -242,21 +242,24 @@ def cmd_eval(args) -> int:
     print(f"[blx] evaluated with eval_actions={actions!r}; eval.json (the run's own, "
           f"{own!r}) is left as it was", file=sys.stderr)
   else:
-    result = across_keys(key_seeds, runs.evaluate_run_keys(run, key_seeds,
-                                                           metrics_only=args.metrics_only))
+    result = {**across_keys(key_seeds, runs.evaluate_run_keys(run, key_seeds,
+                                                              metrics_only=args.metrics_only)),
+              "env_steps": run.env_steps}
     print(f"[blx] evaluated with evaluation keys {key_seeds}"
           + (f" and eval_actions={actions!r}" if other else "")
           + "; eval.json (key 0) is left as it was", file=sys.stderr)
+  # how far the evaluated parameters had trained: an unfinished run's last checkpoint's
+  trained = "" if run.env_steps is None else f", trained {run.env_steps:,.0f} env steps per seed"
   if args.json:
     print(json.dumps(result, indent=2))
   elif key_seeds is None:
-    print(f"{run.spec.objective} on {run.spec.env}, seeds {list(run.spec.seeds)}"
+    print(f"{run.spec.objective} on {run.spec.env}, seeds {list(run.spec.seeds)}{trained}"
           + (f", eval_actions={actions!r}" if other else ""))
     _print_summary(result["summary"])
   else:
-    print(f"{run.spec.objective} on {run.spec.env}, seeds {list(run.spec.seeds)}: the mean over "
-          f"seeds per evaluation key {key_seeds}; the std of that mean across keys; the mean over "
-          "seeds of each seed's std across keys (the evaluation's own noise)")
+    print(f"{run.spec.objective} on {run.spec.env}, seeds {list(run.spec.seeds)}{trained}: the "
+          f"mean over seeds per evaluation key {key_seeds}; the std of that mean across keys; the "
+          "mean over seeds of each seed's std across keys (the evaluation's own noise)")
     width = max((len(k) for k in result["across_keys"]), default=10)
     for key, s in result["across_keys"].items():
       means = "  ".join(f"{m:.4f}" for m in s["mean_per_key"])

@@ -157,6 +157,19 @@ class Run(NamedTuple):
   policy: Any
   meta: dict
 
+  @property
+  def env_steps(self) -> float | None:
+    """The env steps per seed ``params`` had trained: the checkpoint's own count, which, for a
+    run that trains in segments (``train(checkpoint_segments=...)``) and stopped mid-chunk, is past
+    its last evaluation; else its last evaluation's (a checkpoint older than the count); None
+    without a checkpoint."""
+    if self.params is None:
+      return None
+    steps = self.meta.get("env_steps")
+    if steps is None:
+      steps = ((self.meta.get("history") or [{}])[-1]).get("env_steps")
+    return None if steps is None else float(steps)
+
 
 def default_obs_indices(env_name: str) -> str:
   """The feature space reward-free runs use by default: xy position for the point mass (it has no
@@ -493,11 +506,13 @@ def evaluation(run: Run) -> dict:
 
   ``evaluated_on`` records the machine that evaluated (when, device, versions), which need not be
   the one that trained: a run's final evaluation can be taken up on another machine by ``blx
-  eval``, and the episodes' physics differ in their last bits between CPU and GPU."""
+  eval``, and the episodes' physics differ in their last bits between CPU and GPU.
+  ``env_steps`` is how far the evaluated parameters had trained (``Run.env_steps``): an unfinished
+  run's last checkpoint's, perhaps mid-chunk."""
   values = evaluate_run(run)
   machine = this_machine()
   return {"per_seed": values, "summary": summarise(values), "seeds": list(run.spec.seeds),
-          "objective": run.spec.objective, "env": run.spec.env,
+          "objective": run.spec.objective, "env": run.spec.env, "env_steps": run.env_steps,
           "evaluated_on": {"date": machine.started, "device": machine.device,
                            "platform": machine.platform, "device_count": machine.device_count,
                            "versions": machine.versions, "lgr_goals": machine.lgr_goals}}

@@ -56,6 +56,9 @@ def test_train_writes_a_complete_run_directory(trained):
   # 2 evaluations x 2 seeds, with finite rewards.
   assert len(rows) == 4 and {r["seed"] for r in rows} == {"0", "1"}
   assert all(np.isfinite(float(r["eval/episode_reward"])) for r in rows)
+  # eval.json says how far the evaluated parameters trained: here, to the run's end
+  assert json.load(open(os.path.join(trained, "eval.json")))["env_steps"] == float(
+      rows[-1]["env_steps"]) == 1600
   # Steps/s and the ETA leave compilation out; "time" is the wall time since the start.
   for r in rows:
     steps, wall, compile_s = float(r["env_steps"]), float(r["time"]), float(r["compile_seconds"])
@@ -121,6 +124,37 @@ def test_eval_with_sampled_actions_scores_the_original_protocol_and_keeps_eval_j
   # the run's own way of acting is its ordinary evaluation
   assert cli.main(["eval", trained, "--eval-actions", "mean", "--json"]) == 0
   assert json.loads(capsys.readouterr().out)["per_seed"] == own
+
+
+def test_eval_names_the_env_steps_of_a_run_stopped_within_a_chunk(tmp_path, capsys, monkeypatch):
+  # A run training in segments (2 per chunk of 5 iterations: 3 + 2), stopped as a device call's
+  # time limit stops it, after the checkpoint of its second chunk's first segment: its parameters
+  # trained 8 iterations, past its last evaluation's 5, and its evaluation says how far.
+  from blx.training import checkpoint
+  monkeypatch.setenv("BLX_CHECKPOINT_SEGMENTS", "2")
+  saves, save = [], checkpoint.save
+
+  def save_then_stop(directory, tree, meta, **kwargs):
+    save(directory, tree, meta, **kwargs)
+    saves.append(meta["chunk"])
+    if len(saves) == 3:
+      raise KeyboardInterrupt
+
+  monkeypatch.setattr(checkpoint, "save", save_then_stop)
+  out = str(tmp_path / "stopped")
+  assert cli.main(["train", "--objective", "gcrl", "--seeds", "0", "--out", out, *TINY]) == (
+      cli.INTERRUPTED_STATUS)
+  monkeypatch.setattr(checkpoint, "save", save)
+  rows = list(csv.DictReader(open(os.path.join(out, "metrics.csv"))))
+  per_iteration = 1600 / 10
+  assert [float(r["env_steps"]) for r in rows] == [5 * per_iteration]
+  capsys.readouterr()
+  assert cli.main(["eval", out, "--json"]) == 0
+  assert json.loads(capsys.readouterr().out)["env_steps"] == 8 * per_iteration
+  assert cli.main(["eval", out, "--key-seeds", "0,1", "--json"]) == 0
+  assert json.loads(capsys.readouterr().out)["env_steps"] == 8 * per_iteration
+  assert cli.main(["eval", out]) == 0
+  assert "seeds [0], trained 1,280 env steps per seed" in capsys.readouterr().out
 
 
 def test_eval_metrics_only_gives_the_evaluators_values_without_the_return_episodes(trained,

@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 
 from blx import envs
+from blx.experiments import runs
 from blx.envs.env import State
 from tests.experiments import load_benchmark
 
@@ -109,8 +110,9 @@ def test_the_json_names_the_runs_settings_and_how_far_it_had_trained(monkeypatch
                            ppo={"entropy_cost": 0.1})
     policy = lambda params, obs, z=None, key=None, deterministic=False: (   # noqa: E731
         jnp.zeros(obs.shape[:-1] + (1,)))
-    return SimpleNamespace(spec=spec, env=envs.episode(_Runner(), 8), policy=policy,
-                           params={"w": jnp.zeros((2,))}, meta=meta)
+    return runs.Run(directory=str(tmp_path), spec=spec, env=envs.episode(_Runner(), 8),
+                    objective=None, config=None, params={"w": jnp.zeros((2,))}, policy=policy,
+                    meta=meta)
   out = tmp_path / "velocity.json"
   history = [{"env_steps": 1e6}, {"env_steps": 2e6}]
   for meta, env_steps in (({"history": history}, 2e6),
