@@ -12,8 +12,8 @@ import numpy as np
 import pytest
 
 from blx import envs
-from blx.experiments import runs
 from blx.envs.env import State
+from blx.experiments import runs
 from tests.experiments import load_benchmark
 
 root_velocity = load_benchmark("root_velocity")
