@@ -235,8 +235,13 @@ def cmd_eval(args) -> int:
   other = actions not in (None, own)
   if other:
     run = run._replace(config=run.config.replace(eval_actions=actions))
-  if key_seeds is None and not other:
+  if key_seeds is None and not other and run.finished:
     result = runs.write_eval(run)
+  elif key_seeds is None and not other:
+    result = runs.evaluation(run)
+    print(f"[blx] {args.dir} is unfinished ({runs.progress_text(run.meta)}): evaluated as it "
+          "stands; eval.json, the final evaluation, is written when its training ends",
+          file=sys.stderr)
   elif key_seeds is None:
     result = {**runs.evaluation(run), "eval_actions": actions}
     print(f"[blx] evaluated with eval_actions={actions!r}; eval.json (the run's own, "
@@ -455,7 +460,7 @@ def _parser() -> argparse.ArgumentParser:
   add_eval_protocol_flag(p)
   p.set_defaults(fn=cmd_train)
 
-  p = sub.add_parser("eval", help="the metrics of a trained run")
+  p = sub.add_parser("eval", help="the metrics of a trained run (eval.json once it has finished training)")
   p.add_argument("dir")
   p.add_argument("--json", action="store_true")
   p.add_argument("--key-seeds", default=None, metavar="K,K,...",

@@ -6,7 +6,9 @@ A run directory holds:
   full desc, objective name and options, PPO config, seeds, evaluation settings);
 * ``checkpoint/``: the training state of every seed (``blx.training.checkpoint``);
 * ``metrics.csv``: one row per evaluation and seed, rewritten after every evaluation;
-* ``eval.json``: the final metrics of ``blx eval``, with the machine that evaluated them;
+* ``eval.json``: the finished run's final metrics (written when training ends, or by ``blx eval``),
+  with the machine that evaluated them and the env steps the parameters trained; never written
+  for an unfinished run, as a sweep takes a point that has one as done;
 * ``provenance.json``: where each process that trained the run ran (device, versions) and over
   which env steps (``read_provenance``), so that wall times are compared on like machines;
 * ``plots/``: ``training_curves.png``, and ``skills.png`` (each skill's cloud in the feature space)
@@ -36,7 +38,8 @@ from blx.training import checkpoint
 __all__ = ["FORMAT_VERSION", "RunSpec", "Run", "RunError", "build", "load_run", "write_config",
            "write_metrics_csv", "default_obs_indices", "evaluator_for", "evaluate_run",
            "evaluate_run_keys", "summarise", "read_spec", "train_run", "evaluation", "write_eval",
-           "Segment", "this_machine", "read_provenance", "EVAL_PROTOCOLS", "check_eval_protocol"]
+           "Segment", "this_machine", "read_provenance", "EVAL_PROTOCOLS", "check_eval_protocol",
+           "checkpoint_finished", "progress_text"]
 
 FORMAT_VERSION = 1
 PROVENANCE = "provenance.json"
@@ -169,6 +172,26 @@ class Run(NamedTuple):
     if steps is None:
       steps = ((self.meta.get("history") or [{}])[-1]).get("env_steps")
     return None if steps is None else float(steps)
+
+  @property
+  def finished(self) -> bool:
+    """Whether ``params`` are the whole run's (``checkpoint_finished``); False without them."""
+    return self.params is not None and checkpoint_finished(self.meta)
+
+
+def checkpoint_finished(meta: dict) -> bool:
+  """Whether a checkpoint's metadata is a whole run's: every chunk trained, none cut within. A
+  checkpoint that does not count its chunks (``num_chunks``; older than the count, or a run's
+  meta built from its result, which is whole) is taken as finished."""
+  total = meta.get("num_chunks")
+  return total is None or (meta.get("chunk") == total and not meta.get("partial"))
+
+
+def progress_text(meta: dict) -> str:
+  """Where an unfinished checkpoint stands: "3 of 20 chunks and 46 iterations of the next"."""
+  within = (meta.get("partial") or {}).get("iterations")
+  return (f"{meta.get('chunk')} of {meta.get('num_chunks')} chunks"
+          + (f" and {within} iterations of the next" if within else ""))
 
 
 def default_obs_indices(env_name: str) -> str:
@@ -519,7 +542,12 @@ def evaluation(run: Run) -> dict:
 
 
 def write_eval(run: Run) -> dict:
-  """``evaluation(run)``, written to ``eval.json`` and returned."""
+  """``evaluation(run)``, written to ``eval.json`` and returned. Refused for an unfinished run:
+  eval.json is the finished run's final evaluation, and a sweep takes a point that has one as
+  done (``evaluation`` scores an unfinished run without writing it)."""
+  if not run.finished:
+    raise RunError(f"{run.directory!r} is unfinished ({progress_text(run.meta)}): eval.json is "
+                   "written once its training ends; evaluation(run) scores it as it stands")
   out = evaluation(run)
   _write_json(os.path.join(run.directory, "eval.json"), out)
   return out

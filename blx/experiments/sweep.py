@@ -25,6 +25,7 @@ from typing import Any, Callable
 from blx import metrics, training
 from blx.experiments import runs
 from blx.options import check_names
+from blx.training import checkpoint
 
 __all__ = ["load_spec", "check_spec", "expand", "run_sweep"]
 
@@ -177,7 +178,11 @@ def run_sweep(spec: dict, out: str, *, progress=True, eval_metrics: bool = False
     eval_path = os.path.join(directory, "eval.json")
     if os.path.exists(os.path.join(directory, "config.json")):
       _check_same_point(name, directory, run_spec, built[i][0].desc)
-    if os.path.exists(eval_path):
+    unfinished = _unfinished(directory) if os.path.exists(eval_path) else None
+    if unfinished and progress:
+      print(f"[blx sweep] {name}: its eval.json scored an unfinished run ({unfinished}); "
+            "not a final evaluation", flush=True)
+    if os.path.exists(eval_path) and not unfinished:
       with open(eval_path) as f:
         result = json.load(f)
     elif select is not None and not select(name, run_spec):
@@ -194,6 +199,18 @@ def run_sweep(spec: dict, out: str, *, progress=True, eval_metrics: bool = False
                  "summary": result["summary"], "seeds": len(run_spec.seeds)})
   write_tables(rows, out)
   return rows
+
+
+def _unfinished(directory: str) -> str | None:
+  """Where the run in ``directory`` stands if its checkpoint is not a whole run's
+  (``runs.progress_text``), else None (no checkpoint, or a finished one). A point's eval.json
+  beside an unfinished checkpoint (earlier versions of ``blx eval`` wrote one there) does not end
+  its training."""
+  ckpt = os.path.join(directory, "checkpoint")
+  if not checkpoint.exists(ckpt):
+    return None
+  meta = checkpoint.read_meta(ckpt)
+  return None if runs.checkpoint_finished(meta) else runs.progress_text(meta)
 
 
 def _cell(summary: dict, key: str, sign: float) -> tuple[str, float, float]:

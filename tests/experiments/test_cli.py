@@ -126,10 +126,12 @@ def test_eval_with_sampled_actions_scores_the_original_protocol_and_keeps_eval_j
   assert json.loads(capsys.readouterr().out)["per_seed"] == own
 
 
-def test_eval_names_the_env_steps_of_a_run_stopped_within_a_chunk(tmp_path, capsys, monkeypatch):
-  # A run training in segments (2 per chunk of 5 iterations: 3 + 2), stopped as a device call's
-  # time limit stops it, after the checkpoint of its second chunk's first segment: its parameters
-  # trained 8 iterations, past its last evaluation's 5, and its evaluation says how far.
+def test_an_unfinished_run_is_evaluated_where_it_stands_and_its_sweep_trains_it_on(
+    tmp_path, capsys, monkeypatch):
+  # A sweep's point training in segments (2 per chunk of 5 iterations: 3 + 2), stopped as a device
+  # call's time limit stops it, after the checkpoint of its second chunk's first segment: its
+  # parameters trained 8 iterations, past its last evaluation's 5.
+  from blx.experiments import runs
   from blx.training import checkpoint
   monkeypatch.setenv("BLX_CHECKPOINT_SEGMENTS", "2")
   saves, save = [], checkpoint.save
@@ -140,21 +142,47 @@ def test_eval_names_the_env_steps_of_a_run_stopped_within_a_chunk(tmp_path, caps
     if len(saves) == 3:
       raise KeyboardInterrupt
 
+  config = {**TINY_CONFIG, "policy_hidden": [[16, 16]], "value_hidden": [[16, 16]]}
+  spec = {"name": "stopped", "env": "point", "objective": "gcrl", "seeds": [0], "steps": 1600,
+          "config": config, "env_params": {"episode_length": 20}}
+  out = str(tmp_path / "sweep")
   monkeypatch.setattr(checkpoint, "save", save_then_stop)
-  out = str(tmp_path / "stopped")
-  assert cli.main(["train", "--objective", "gcrl", "--seeds", "0", "--out", out, *TINY]) == (
-      cli.INTERRUPTED_STATUS)
+  with pytest.raises(KeyboardInterrupt):
+    sweep.run_sweep(spec, out, progress=False)
   monkeypatch.setattr(checkpoint, "save", save)
-  rows = list(csv.DictReader(open(os.path.join(out, "metrics.csv"))))
+  [point] = [os.path.join(out, d) for d in os.listdir(out) if os.path.isdir(os.path.join(out, d))]
   per_iteration = 1600 / 10
+  rows = list(csv.DictReader(open(os.path.join(point, "metrics.csv"))))
   assert [float(r["env_steps"]) for r in rows] == [5 * per_iteration]
+
+  # blx eval scores it as it stands, names how far it trained, and writes no eval.json
   capsys.readouterr()
-  assert cli.main(["eval", out, "--json"]) == 0
+  assert cli.main(["eval", point, "--json"]) == 0
+  captured = capsys.readouterr()
+  assert json.loads(captured.out)["env_steps"] == 8 * per_iteration
+  assert "is unfinished (1 of 2 chunks and 3 iterations of the next)" in captured.err
+  assert "eval.json" not in os.listdir(point)
+  assert cli.main(["eval", point, "--key-seeds", "0,1", "--json"]) == 0
   assert json.loads(capsys.readouterr().out)["env_steps"] == 8 * per_iteration
-  assert cli.main(["eval", out, "--key-seeds", "0,1", "--json"]) == 0
-  assert json.loads(capsys.readouterr().out)["env_steps"] == 8 * per_iteration
-  assert cli.main(["eval", out]) == 0
+  assert cli.main(["eval", point]) == 0
   assert "seeds [0], trained 1,280 env steps per seed" in capsys.readouterr().out
+  run = runs.load_run(point)
+  assert not run.finished
+  with pytest.raises(runs.RunError, match="is unfinished .* eval.json is written once"):
+    runs.write_eval(run)
+
+  # An eval.json beside it (as blx eval wrote one before) does not end the point: the sweep
+  # trains it on to its end, and the finished run's eval.json replaces it.
+  with open(os.path.join(point, "eval.json"), "w") as f:
+    json.dump(runs.evaluation(run), f)
+  rows_out = sweep.run_sweep(spec, out, progress=print)
+  assert "its eval.json scored an unfinished run (1 of 2 chunks and 3 iterations of the next)" in (
+      capsys.readouterr().out)
+  rows = list(csv.DictReader(open(os.path.join(point, "metrics.csv"))))
+  assert [float(r["env_steps"]) for r in rows] == [5 * per_iteration, 1600]
+  final = json.load(open(os.path.join(point, "eval.json")))
+  assert final["env_steps"] == 1600 and rows_out[0]["summary"] == final["summary"]
+  assert runs.load_run(point).finished
 
 
 def test_eval_metrics_only_gives_the_evaluators_values_without_the_return_episodes(trained,
