@@ -460,7 +460,8 @@ def _parser() -> argparse.ArgumentParser:
   add_eval_protocol_flag(p)
   p.set_defaults(fn=cmd_train)
 
-  p = sub.add_parser("eval", help="the metrics of a trained run (eval.json once it has finished training)")
+  p = sub.add_parser("eval", help="the metrics of a trained run (eval.json once it has finished "
+                     "training)")
   p.add_argument("dir")
   p.add_argument("--json", action="store_true")
   p.add_argument("--key-seeds", default=None, metavar="K,K,...",
