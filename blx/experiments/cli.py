@@ -222,6 +222,7 @@ def _print_summary(summary: dict) -> None:
 
 
 def cmd_eval(args) -> int:
+  from blx import training
   from blx.experiments import runs
   # the keys are checked before the run is loaded and compiled
   key_seeds = None if args.key_seeds is None else _key_seeds(args.key_seeds)
@@ -239,8 +240,8 @@ def cmd_eval(args) -> int:
     result = runs.write_eval(run)
   elif key_seeds is None and not other:
     result = runs.evaluation(run)
-    print(f"[blx] {args.dir} is unfinished ({runs.progress_text(run.meta)}): evaluated as it "
-          "stands; eval.json, the final evaluation, is written when its training ends",
+    print(f"[blx] {args.dir} is unfinished ({training.checkpoint_progress(run.meta)}): evaluated "
+          "as it stands; eval.json, the final evaluation, is written when its training ends",
           file=sys.stderr)
   elif key_seeds is None:
     result = {**runs.evaluation(run), "eval_actions": actions}

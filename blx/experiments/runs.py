@@ -38,8 +38,7 @@ from blx.training import checkpoint
 __all__ = ["FORMAT_VERSION", "RunSpec", "Run", "RunError", "build", "load_run", "write_config",
            "write_metrics_csv", "default_obs_indices", "evaluator_for", "evaluate_run",
            "evaluate_run_keys", "summarise", "read_spec", "train_run", "evaluation", "write_eval",
-           "Segment", "this_machine", "read_provenance", "EVAL_PROTOCOLS", "check_eval_protocol",
-           "checkpoint_finished", "progress_text"]
+           "Segment", "this_machine", "read_provenance", "EVAL_PROTOCOLS", "check_eval_protocol"]
 
 FORMAT_VERSION = 1
 PROVENANCE = "provenance.json"
@@ -175,23 +174,9 @@ class Run(NamedTuple):
 
   @property
   def finished(self) -> bool:
-    """Whether ``params`` are the whole run's (``checkpoint_finished``); False without them."""
-    return self.params is not None and checkpoint_finished(self.meta)
-
-
-def checkpoint_finished(meta: dict) -> bool:
-  """Whether a checkpoint's metadata is a whole run's: every chunk trained, none cut within. A
-  checkpoint that does not count its chunks (``num_chunks``; older than the count, or a run's
-  meta built from its result, which is whole) is taken as finished."""
-  total = meta.get("num_chunks")
-  return total is None or (meta.get("chunk") == total and not meta.get("partial"))
-
-
-def progress_text(meta: dict) -> str:
-  """Where an unfinished checkpoint stands: "3 of 20 chunks and 46 iterations of the next"."""
-  within = (meta.get("partial") or {}).get("iterations")
-  return (f"{meta.get('chunk')} of {meta.get('num_chunks')} chunks"
-          + (f" and {within} iterations of the next" if within else ""))
+    """Whether ``params`` are the whole run's (``training.checkpoint_finished``); False without
+    them."""
+    return self.params is not None and training.checkpoint_finished(self.meta)
 
 
 def default_obs_indices(env_name: str) -> str:
@@ -546,8 +531,9 @@ def write_eval(run: Run) -> dict:
   eval.json is the finished run's final evaluation, and a sweep takes a point that has one as
   done (``evaluation`` scores an unfinished run without writing it)."""
   if not run.finished:
-    raise RunError(f"{run.directory!r} is unfinished ({progress_text(run.meta)}): eval.json is "
-                   "written once its training ends; evaluation(run) scores it as it stands")
+    raise RunError(f"{run.directory!r} is unfinished ({training.checkpoint_progress(run.meta)}): "
+                   "eval.json is written once its training ends; evaluation(run) scores it as it "
+                   "stands")
   out = evaluation(run)
   _write_json(os.path.join(run.directory, "eval.json"), out)
   return out

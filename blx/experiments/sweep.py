@@ -203,14 +203,14 @@ def run_sweep(spec: dict, out: str, *, progress=True, eval_metrics: bool = False
 
 def _unfinished(directory: str) -> str | None:
   """Where the run in ``directory`` stands if its checkpoint is not a whole run's
-  (``runs.progress_text``), else None (no checkpoint, or a finished one). A point's eval.json
-  beside an unfinished checkpoint (earlier versions of ``blx eval`` wrote one there) does not end
-  its training."""
+  (``training.checkpoint_progress``), else None (no checkpoint, or a finished one). A point's
+  eval.json beside an unfinished checkpoint (earlier versions of ``blx eval`` wrote one there)
+  does not end its training."""
   ckpt = os.path.join(directory, "checkpoint")
   if not checkpoint.exists(ckpt):
     return None
   meta = checkpoint.read_meta(ckpt)
-  return None if runs.checkpoint_finished(meta) else runs.progress_text(meta)
+  return None if training.checkpoint_finished(meta) else training.checkpoint_progress(meta)
 
 
 def _cell(summary: dict, key: str, sign: float) -> tuple[str, float, float]:

@@ -1,7 +1,8 @@
 """blx.training — one PPO: pure train step (jit, vmap over seeds, sharded) and its host loop."""
 
 from blx.training.config import PPOConfig, check_seeds, ppo_defaults
-from blx.training.loop import (NonFiniteError, TrainResult, drop_env_state, evaluate_together,
+from blx.training.loop import (NonFiniteError, TrainResult, checkpoint_finished,
+                               checkpoint_progress, drop_env_state, evaluate_together,
                                print_progress, restore_state, segment_length, train)
 from blx.training.losses import clipped_surrogate, gae
 from blx.training.ppo import (RETURN_KEYS, Params, PolicyParams, Trainer, TrainState, make_policy,
@@ -9,6 +10,7 @@ from blx.training.ppo import (RETURN_KEYS, Params, PolicyParams, Trainer, TrainS
 
 __all__ = ["RETURN_KEYS", "PPOConfig", "ppo_defaults", "check_seeds", "NonFiniteError",
            "TrainResult", "train", "evaluate_together", "print_progress", "restore_state",
-           "drop_env_state", "segment_length", "clipped_surrogate", "gae", "Params",
+           "drop_env_state", "segment_length", "checkpoint_finished", "checkpoint_progress",
+           "clipped_surrogate", "gae", "Params",
            "PolicyParams", "policy_params",
            "Trainer", "TrainState", "make_policy", "make_train", "make_trainer", "place_state"]

@@ -22,7 +22,8 @@ from blx.training.ppo import (PolicyParams, Trainer, TrainState, make_trainer, p
                               policy_params, reduce_stats)
 
 __all__ = ["TrainResult", "train", "run_keys", "NonFiniteError", "evaluate_together", "compile_all",
-           "parallel_compile_default", "restore_state", "drop_env_state", "segment_length"]
+           "parallel_compile_default", "restore_state", "drop_env_state", "segment_length",
+           "checkpoint_finished", "checkpoint_progress"]
 
 
 class NonFiniteError(FloatingPointError):
@@ -239,13 +240,10 @@ def train(env: Any, objective: Objective, config: PPOConfig, *, seeds: Sequence[
         report(row)
   except KeyboardInterrupt:
     if checkpoint_dir and checkpoint.exists(checkpoint_dir):
-      meta = checkpoint.read_meta(checkpoint_dir)
-      partial = meta.get("partial")
-      within = (f" and {partial['iterations']}/{per_chunk} iterations of the next"
-                if partial else "")
-      print(f"[blx] interrupted; the checkpoint in {checkpoint_dir} holds {meta['chunk']}/"
-            f"{trainer.num_chunks} chunks{within}: call train(..., checkpoint_dir="
-            f"{checkpoint_dir!r}, resume=True) to continue", file=sys.stderr)
+      progress = checkpoint_progress(checkpoint.read_meta(checkpoint_dir), per_chunk)
+      print(f"[blx] interrupted; the checkpoint in {checkpoint_dir} holds {progress}: call "
+            f"train(..., checkpoint_dir={checkpoint_dir!r}, resume=True) to continue",
+            file=sys.stderr)
     raise
 
   return TrainResult(params=policy_params(state), metrics=history, policy=trainer.policy, state=state)
@@ -260,6 +258,23 @@ def run_keys(seeds: Sequence[int]) -> tuple[jax.Array, jax.Array]:
   keys = jnp.stack([jax.random.PRNGKey(s) for s in seeds])
   return (jax.vmap(lambda k: jax.random.split(k)[0])(keys),
           jax.vmap(lambda k: jax.random.split(k)[1])(keys))
+
+
+def checkpoint_finished(meta: dict) -> bool:
+  """Whether a checkpoint's metadata (``train``'s) is a whole run's: every chunk trained, none cut
+  within. A checkpoint that does not count its chunks (``num_chunks``; older than the count, or a
+  run's meta built from its result, which is whole) is taken as finished."""
+  total = meta.get("num_chunks")
+  return total is None or (meta.get("chunk") == total and not meta.get("partial"))
+
+
+def checkpoint_progress(meta: dict, iterations_per_chunk: int | None = None) -> str:
+  """Where a checkpoint stands, from its metadata: "3 of 20 chunks and 46 iterations of the next"
+  ("46 of 92 iterations" given the chunk's iterations)."""
+  within = (meta.get("partial") or {}).get("iterations")
+  of = f" of {iterations_per_chunk}" if iterations_per_chunk else ""
+  return (f"{meta.get('chunk')} of {meta.get('num_chunks')} chunks"
+          + (f" and {within}{of} iterations of the next" if within else ""))
 
 
 CHECKPOINT_SEGMENTS_ENV = "BLX_CHECKPOINT_SEGMENTS"

@@ -32,7 +32,8 @@ def _same_run(a, b):
         {k: v for k, v in row_b.items() if k not in CLOCK})
 
 
-def test_a_chunk_in_segments_is_the_same_run_and_resumes_from_within_a_chunk(tmp_path, monkeypatch):
+def test_a_chunk_in_segments_is_the_same_run_and_resumes_from_within_a_chunk(tmp_path, monkeypatch,
+                                                                            capsys):
   monkeypatch.delenv("BLX_CHECKPOINT_SEGMENTS", raising=False)   # "none" below means none
   env = _env()
   assert training.make_trainer(env, reach_latent(), CONFIG).iterations_per_chunk == 5
@@ -60,6 +61,11 @@ def test_a_chunk_in_segments_is_the_same_run_and_resumes_from_within_a_chunk(tmp
   # within the first chunk after iteration 3, its end, within the second after iteration 3
   assert saves == [(0, 3), (1, None), (1, 3)]
   meta = checkpoint.read_meta(directory)
+  # where it stands, as the interruption says it and as a reader of the checkpoint does
+  assert not training.checkpoint_finished(meta)
+  assert training.checkpoint_progress(meta) == "1 of 2 chunks and 3 iterations of the next"
+  assert "holds 1 of 2 chunks and 3 of 5 iterations of the next: call train(" in (
+      capsys.readouterr().err)
   assert meta["env_steps"] == 8 * CONFIG.env_steps_per_iteration and len(meta["history"]) == 1
   # the first three iterations' statistics are kept for the chunk's row
   assert np.shape(meta["partial"]["metrics"]["loss/total"]["values"]) == (1, 3)
@@ -73,6 +79,7 @@ def test_a_chunk_in_segments_is_the_same_run_and_resumes_from_within_a_chunk(tmp
                            resume=True, checkpoint_segments=5)
   _same_run(whole, resumed)
   assert "partial" not in checkpoint.read_meta(directory)
+  assert training.checkpoint_finished(checkpoint.read_meta(directory))
   assert resumed.metrics[1]["time"] > meta["partial"]["time"]
   # and with no segments (the chunk's last two iterations in one)
   _same_run(whole, training.train(env, reach_latent(), CONFIG, progress=False,
