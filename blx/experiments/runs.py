@@ -3,7 +3,9 @@
 A run directory holds:
 
 * ``config.json``: everything needed to rebuild the run (format version, env name, params and the
-  full desc, objective name and options, PPO config, seeds, evaluation settings);
+  full desc, objective name and options, PPO config, seeds, evaluation settings); its PPO config
+  names the settings the run sets itself, the rest being its env's row, and where blx's defaults
+  moved since, the checkpoint's record of the settings it trained with wins (``_as_trained``);
 * ``checkpoint/``: the training state of every seed (``blx.training.checkpoint``);
 * ``metrics.csv``: one row per evaluation and seed, rewritten after every evaluation;
 * ``eval.json``: the finished run's final metrics (written when training ends, or by ``blx eval``),
@@ -24,6 +26,7 @@ import dataclasses
 import json
 import os
 import platform
+import sys
 import time
 from importlib import metadata
 from typing import Any, NamedTuple, Sequence
@@ -308,6 +311,7 @@ def load_run(directory: str, *, need_checkpoint: bool = True) -> Run:
   """Rebuilds env, objective, config and the trained parameters from a run directory alone."""
   spec = read_spec(directory)
   env, objective, config = build(spec)
+  config = _as_trained(directory, spec, config)
   trainer = training.make_trainer(env, objective, config)
   ckpt = os.path.join(directory, "checkpoint")
   params, meta = None, {}
@@ -325,6 +329,23 @@ def load_run(directory: str, *, need_checkpoint: bool = True) -> Run:
     raise RunError(f"{directory!r} has no checkpoint yet (was training interrupted before the "
                    "first evaluation?)")
   return Run(directory, spec, env, objective, config, params, trainer.policy, meta)
+
+
+def _as_trained(directory: str, spec: RunSpec, config: training.PPOConfig) -> training.PPOConfig:
+  """``config`` as the run in ``directory`` trained with it (``training.config_as_trained``):
+  where blx's defaults moved since its checkpoint was written, a setting its config.json leaves to
+  them keeps the checkpoint's value, and a line on stderr names each, so that a resume goes on
+  and an evaluation scores the run as it trained."""
+  ckpt = os.path.join(directory, "checkpoint")
+  if not checkpoint.exists(ckpt):
+    return config
+  config, taken = training.config_as_trained(checkpoint.read_meta(ckpt), config, own=spec.ppo)
+  if taken:
+    kept = ", ".join(f"{name} {then!r} (blx's default now {now!r})"
+                     for name, (then, now) in taken.items())
+    print(f"[blx] {directory} keeps the settings it trained with where blx's defaults moved "
+          f"since: {kept}", file=sys.stderr)
+  return config
 
 
 def write_metrics_csv(path: str, history: list[dict], seeds) -> None:
@@ -451,6 +472,8 @@ def train_run(spec: RunSpec, directory: str, *, resume: bool = False, progress=T
     if (old.env, old.objective, list(old.seeds)) != (spec.env, spec.objective, list(spec.seeds)):
       raise RunError(f"{directory!r} holds a run of {old.objective} on {old.env} with seeds "
                      f"{list(old.seeds)}; resume it with the same settings")
+  if exists and resume:
+    config = _as_trained(directory, spec, config)
   segments = read_provenance(directory) if exists else []
   eval_protocol = check_eval_protocol(directory, eval_metrics, eval_protocol, segments)
   if not exists:  # a resumed run keeps its config.json untouched

@@ -64,7 +64,8 @@ class PPOConfig:
   (its evaluation on 128 envs samples from the policy, braxlines/training/ppo.py at the paper's
   commit), so that the evaluation averages over the policy's episodes. The paper's metrics (MI,
   LGR, energy distance) have evaluators of their own, which sample as the paper's, whichever this
-  is. A setting of the evaluation, not of learning; a resumed run keeps the one it began with.
+  is. A setting of the evaluation, not of learning; a resumed run keeps the one it began with,
+  also where blx's default moves after (``training.config_as_trained``).
   """
 
   num_timesteps: int = 30_000_000

@@ -23,7 +23,7 @@ from blx.training.ppo import (PolicyParams, Trainer, TrainState, make_trainer, p
 
 __all__ = ["TrainResult", "train", "run_keys", "NonFiniteError", "evaluate_together", "compile_all",
            "parallel_compile_default", "restore_state", "drop_env_state", "segment_length",
-           "checkpoint_finished", "checkpoint_progress"]
+           "checkpoint_finished", "checkpoint_progress", "config_as_trained"]
 
 
 class NonFiniteError(FloatingPointError):
@@ -275,6 +275,29 @@ def checkpoint_progress(meta: dict, iterations_per_chunk: int | None = None) -> 
   of = f" of {iterations_per_chunk}" if iterations_per_chunk else ""
   return (f"{meta.get('chunk')} of {meta.get('num_chunks')} chunks"
           + (f" and {within}{of} iterations of the next" if within else ""))
+
+
+def config_as_trained(meta: dict, config: PPOConfig,
+                      own: Sequence[str] = ()) -> tuple[PPOConfig, dict[str, tuple]]:
+  """``config`` with the settings a checkpoint's metadata (``train``'s) recorded it trained with,
+  where they differ, but for the fields named in ``own``; and ``{field: (the recorded value,
+  config's)}`` for each one taken. A run's settings are its PPO row with the few it sets itself
+  (``own``), so where blx's defaults moved since the checkpoint was written, this is the config
+  that resumes it (``train`` refuses any other) and evaluates it as it trained. A field in ``own``
+  that contradicts the checkpoint is left for ``train`` to refuse; one the checkpoint does not
+  record (added to ``PPOConfig`` since) keeps ``config``'s value."""
+  recorded = meta.get("config") or {}
+  taken = {}
+  for field in dataclasses.fields(PPOConfig):
+    name, now = field.name, getattr(config, field.name)
+    if name in own or name not in recorded:
+      continue
+    then = recorded[name]
+    if name == "staggered_starts":  # recorded resolved; None chose by num_envs
+      now = config.starts_staggered
+    if _jsonable(then) != _jsonable(now):
+      taken[name] = (tuple(then) if isinstance(now, tuple) else then, getattr(config, name))
+  return config.replace(**{name: then for name, (then, _) in taken.items()}), taken
 
 
 CHECKPOINT_SEGMENTS_ENV = "BLX_CHECKPOINT_SEGMENTS"

@@ -541,6 +541,43 @@ def test_a_run_stopped_early_keeps_its_metrics_and_its_resume_continues_them(tmp
   assert resumed.started >= stopped.started
 
 
+def test_a_run_goes_on_and_is_evaluated_with_the_settings_it_trained_with_after_defaults_move(
+    tmp_path, monkeypatch, capsys):
+  from blx import training
+  from blx.experiments import runs
+  spec = runs.RunSpec(env="point", objective="diayn", objective_options={"num_skills": 3},
+                      ppo={**TINY_CONFIG, "num_timesteps": 1600}, seeds=(0,),
+                      env_params={"episode_length": 20})
+  out = str(tmp_path / "run")
+
+  def killed(row):  # the process dies right after the first evaluation
+    raise KeyboardInterrupt
+
+  with pytest.raises(KeyboardInterrupt):
+    runs.train_run(spec, out, progress=killed)
+  # blx's defaults move after the run began: two settings its config.json leaves to them.
+  row = training.ppo_defaults
+  began = (row("point").eval_actions, row("point").entropy_cost)
+  assert began == ("mean", 1e-3)
+  monkeypatch.setattr(training, "ppo_defaults", lambda env=None, **kw: row(env, **kw).replace(
+      eval_actions="sampled", entropy_cost=0.05))
+  capsys.readouterr()
+  run = runs.load_run(out)  # as blx eval and the plots rebuild it
+  assert (run.config.eval_actions, run.config.entropy_cost) == began
+  err = capsys.readouterr().err
+  assert "keeps the settings it trained with" in err
+  assert "eval_actions 'mean' (blx's default now 'sampled')" in err
+  assert "entropy_cost 0.001 (blx's default now 0.05)" in err
+  # Its resume goes on as it trained (train refuses a checkpoint written with another config).
+  done = runs.train_run(spec, out, resume=True, progress=None)
+  assert (done.config.eval_actions, done.config.entropy_cost) == began
+  assert os.path.exists(os.path.join(out, "eval.json"))
+  # A setting the run sets itself is its own: one that contradicts the checkpoint is refused.
+  other = dataclasses.replace(spec, ppo={**spec.ppo, "entropy_cost": 0.05})
+  with pytest.raises(ValueError, match="different config"):
+    runs.train_run(other, out, resume=True, progress=None)
+
+
 def test_the_eval_protocol_sets_the_rollouts_logged_during_training_and_a_run_keeps_it(
     trained, tmp_path, monkeypatch, capsys):
   import jax

@@ -636,3 +636,27 @@ def test_a_chunks_row_keeps_a_max_statistics_largest_and_the_others_mean():
   row = training.train(env, objective, config, seeds=(3,), progress=False).metrics[0]
   np.testing.assert_allclose(row["policy/log_ratio_max"], ratio.max(axis=1), rtol=1e-5)
   np.testing.assert_allclose(row["loss/policy"], policy.mean(axis=1), rtol=1e-4, atol=1e-7)
+
+
+def test_config_as_trained_takes_the_checkpoints_settings_but_those_the_run_sets_itself():
+  import dataclasses
+  import json
+  # A checkpoint's metadata as train writes it (through JSON: tuples come back as lists).
+  then = training.PPOConfig(entropy_cost=0.1, policy_hidden=(64, 64))
+  recorded = {**dataclasses.asdict(then), "staggered_starts": then.starts_staggered}
+  meta = {"config": json.loads(json.dumps(recorded))}
+  # Defaults moved since; the run itself sets entropy_cost (its own, even where it differs).
+  now = training.PPOConfig(entropy_cost=0.2, eval_actions="sampled")
+  config, taken = training.config_as_trained(meta, now, own=("entropy_cost",))
+  assert config == now.replace(eval_actions="mean", policy_hidden=(64, 64))
+  assert taken == {"policy_hidden": ((64, 64), (32, 32, 32, 32)),
+                   "eval_actions": ("mean", "sampled")}
+  # Where nothing moved, nothing is taken: staggered_starts is recorded resolved (None chose off
+  # at 2,048 envs), and a field the checkpoint does not record keeps the config's value.
+  del meta["config"]["max_grad_norm"]
+  same = then.replace(max_grad_norm=5.0)
+  assert training.config_as_trained(meta, same) == (same, {})
+  # A recorded True where None now chooses off (the rule moved) is kept as the run trained.
+  meta["config"]["staggered_starts"] = True
+  config, taken = training.config_as_trained(meta, then)
+  assert config.starts_staggered and taken == {"staggered_starts": (True, None)}
