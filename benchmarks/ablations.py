@@ -720,10 +720,14 @@ def report(study_name: str, study: Study, directory: str, sweep_spec: dict,
           continue
         x = [s / 1e6 for s in steps]
         colour, line = styles[name]
-        ax.plot(x, mean, line, color=colour, alpha=alpha,
-                label=labels[name] if alpha == 1.0 else None)
-        ax.fill_between(x, [m - s for m, s in zip(mean, std)],
-                        [m + s for m, s in zip(mean, std)], color=colour, alpha=0.2 * alpha)
+        single = len(x) == 1  # an arm of one evaluation so far: a line alone would not show it
+        ax.plot(x, mean, line, color=colour, alpha=alpha, marker="o" if single else None,
+                markersize=4, label=labels[name] if alpha == 1.0 else None)
+        if single:
+          ax.errorbar(x, mean, yerr=std, fmt="none", ecolor=colour, alpha=alpha, capsize=3)
+        else:
+          ax.fill_between(x, [m - s for m, s in zip(mean, std)],
+                          [m + s for m, s in zip(mean, std)], color=colour, alpha=0.2 * alpha)
         faded |= alpha < 1.0
         # beside a reference drawn as a point, the arm's own final evaluation is one too, a little
         # to the right: the curves use the protocol of the evaluations during training, which

@@ -239,6 +239,27 @@ def test_a_studys_arms_of_one_value_share_a_colour_and_its_objectives_a_line_sty
   assert {line for _, line in airl} == {"-"} and {line for _, line in gail} == {"--"}
 
 
+def test_an_arm_of_one_evaluation_is_drawn_as_a_point_with_its_spread(tmp_path, monkeypatch):
+  import matplotlib.axes
+  drawn, bars, plot, errorbar = {}, [], matplotlib.axes.Axes.plot, matplotlib.axes.Axes.errorbar
+  monkeypatch.setattr(matplotlib.axes.Axes, "plot", lambda self, *a, **k: drawn.update(
+      {k.get("label"): (list(a[0]), k.get("marker"))}) or plot(self, *a, **k))
+  monkeypatch.setattr(matplotlib.axes.Axes, "errorbar", lambda self, *a, **k: bars.append(
+      (list(a[0]), list(a[1]), list(k["yerr"]))) or errorbar(self, *a, **k))
+  study = ablations.STUDIES["sn_diayn"]
+  spec = ablations.spec(study, "ant", 2, steps=4000, config={"num_evals": 2})
+  (first, _), (second, _) = sweep.expand(spec)
+  for name, values in ((first, {(0, 2000): 1.0, (1, 2000): 1.2, (0, 4000): 1.5, (1, 4000): 1.7}),
+                       (second, {(0, 2000): 0.5, (1, 2000): 0.9})):  # the second: one evaluation
+    (tmp_path / name).mkdir()
+    _write_metrics(tmp_path / name / "metrics.csv", values)
+  ablations.report("sn_diayn", study, str(tmp_path), spec)
+  assert drawn["spectral_norm=True (unfinished)"] == ([0.002, 0.004], None)  # a line
+  assert drawn["spectral_norm=False (unfinished)"] == ([0.002], "o")  # a point
+  assert ([0.002], [0.7], [0.2]) in [(x, [round(v, 6) for v in m], [round(v, 6) for v in d])
+                                     for x, m, d in bars]  # and its std over seeds
+
+
 def _write_metrics(path, values, key="eval/mi"):
   """A metrics.csv with ``values[(seed, env steps)]`` of ``key``."""
   with open(path, "w", newline="") as f:
