@@ -8,7 +8,7 @@ import os
 import sys
 import threading
 import time
-from typing import Any, Callable, NamedTuple, Sequence
+from typing import Any, Callable, Collection, NamedTuple, Sequence
 
 import jax
 import jax.numpy as jnp
@@ -278,7 +278,7 @@ def checkpoint_progress(meta: dict, iterations_per_chunk: int | None = None) -> 
 
 
 def config_as_trained(meta: dict, config: PPOConfig,
-                      own: Sequence[str] = ()) -> tuple[PPOConfig, dict[str, tuple]]:
+                      own: Collection[str] = ()) -> tuple[PPOConfig, dict[str, tuple]]:
   """``config`` with the settings a checkpoint's metadata (``train``'s) recorded it trained with,
   where they differ, but for the fields named in ``own``; and ``{field: (the recorded value,
   config's)}`` for each one taken. A run's settings are its PPO row with the few it sets itself

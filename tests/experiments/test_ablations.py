@@ -400,8 +400,9 @@ def test_a_reference_trained_without_eval_metrics_is_taken_by_its_eval_json_alon
   (tmp_path / "study" / name / "eval.json").write_text(json.dumps(_arm("diayn", [1.0, 1.2])))
   import matplotlib.axes
   points, errorbar = [], matplotlib.axes.Axes.errorbar
-  def spy(self, x, y, *a, **k):
-    points.append((k.get("label"), list(x), list(y), list(k["yerr"])))
+  def spy(self, x, y, *a, **k):  # the labelled points (the arm's one evaluation during training
+    if k.get("label"):           # is drawn with its spread too, unlabelled)
+      points.append((k["label"], list(x), list(y), list(k["yerr"])))
     return errorbar(self, x, y, *a, **k)
   monkeypatch.setattr(matplotlib.axes.Axes, "errorbar", spy)
   table = ablations.report("step_diayn", study, str(tmp_path / "study"), spec, [ref])
