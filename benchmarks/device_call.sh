@@ -39,7 +39,10 @@
 #    same run; only parts an earlier call left staged are sent.
 #    Parts that do not fit the call's return (8 files, 64 MiB) stay in /tmp/stage-NAME, and
 #    `send` says so: a call of `python3 benchmarks/carry.py send /tmp/stage-NAME $OUT` alone
-#    brings them, before the next call packs the run anew.
+#    brings them, before the next call packs the run anew. Every file under $OUT counts, the
+#    call's own too: two arms' logs and packs take six of the eight, so a call that also writes
+#    results of its own (an evaluation's JSON and stderr) puts them in one file (session 59: six
+#    such files left no room for either pack).
 #
 # Two rows side by side (one per GPU, CUDA_VISIBLE_DEVICES=0 and 1): start both in the background
 # and `wait` for both, e.g. `A & B & wait`. The device machine ends the call's whole process
