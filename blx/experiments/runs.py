@@ -311,11 +311,16 @@ def load_run(directory: str, *, need_checkpoint: bool = True) -> Run:
   """Rebuilds env, objective, config and the trained parameters from a run directory alone."""
   spec = read_spec(directory)
   env, objective, config = build(spec)
-  config = _as_trained(directory, spec, config)
-  trainer = training.make_trainer(env, objective, config)
   ckpt = os.path.join(directory, "checkpoint")
+  found = checkpoint.exists(ckpt)
+  if found:  # the settings it trained with, read before the trainer they build
+    try:
+      config = _as_trained(directory, spec, config, checkpoint.read_meta(ckpt))
+    except checkpoint.CheckpointError as e:  # damaged: it says so
+      raise RunError(f"{ckpt}: {e}") from None
+  trainer = training.make_trainer(env, objective, config)
   params, meta = None, {}
-  if checkpoint.exists(ckpt):
+  if found:
     keys = jax.numpy.stack([jax.random.PRNGKey(s) for s in spec.seeds])
     like = jax.eval_shape(jax.vmap(trainer.init), keys)
     try:
@@ -331,15 +336,13 @@ def load_run(directory: str, *, need_checkpoint: bool = True) -> Run:
   return Run(directory, spec, env, objective, config, params, trainer.policy, meta)
 
 
-def _as_trained(directory: str, spec: RunSpec, config: training.PPOConfig) -> training.PPOConfig:
-  """``config`` as the run in ``directory`` trained with it (``training.config_as_trained``):
-  where blx's defaults moved since its checkpoint was written, a setting its config.json leaves to
-  them keeps the checkpoint's value, and a line on stderr names each, so that a resume goes on
-  and an evaluation scores the run as it trained."""
-  ckpt = os.path.join(directory, "checkpoint")
-  if not checkpoint.exists(ckpt):
-    return config
-  config, taken = training.config_as_trained(checkpoint.read_meta(ckpt), config, own=spec.ppo)
+def _as_trained(directory: str, spec: RunSpec, config: training.PPOConfig,
+                meta: dict) -> training.PPOConfig:
+  """``config`` as the run in ``directory`` trained with it, by its checkpoint's metadata ``meta``
+  (``training.config_as_trained``): where blx's defaults moved since the checkpoint was written, a
+  setting its config.json leaves to them keeps the checkpoint's value, and a line on stderr names
+  each, so that a resume goes on and an evaluation scores the run as it trained."""
+  config, taken = training.config_as_trained(meta, config, own=spec.ppo)
   if taken:
     kept = ", ".join(f"{name} {then!r} (blx's default now {now!r})"
                      for name, (then, now) in taken.items())
@@ -472,19 +475,21 @@ def train_run(spec: RunSpec, directory: str, *, resume: bool = False, progress=T
     if (old.env, old.objective, list(old.seeds)) != (spec.env, spec.objective, list(spec.seeds)):
       raise RunError(f"{directory!r} holds a run of {old.objective} on {old.env} with seeds "
                      f"{list(old.seeds)}; resume it with the same settings")
-  if exists and resume:
-    config = _as_trained(directory, spec, config)
+  checkpoint_dir = os.path.join(directory, "checkpoint")
+  # the checkpoint a resume goes on from: the settings it trained with and its evaluations so far
+  resumed = (checkpoint.read_meta(checkpoint_dir) if resume and checkpoint.exists(checkpoint_dir)
+             else {})
+  if resumed:
+    config = _as_trained(directory, spec, config, resumed)
   segments = read_provenance(directory) if exists else []
   eval_protocol = check_eval_protocol(directory, eval_metrics, eval_protocol, segments)
   if not exists:  # a resumed run keeps its config.json untouched
     write_config(directory, spec, env)
   evaluator = (evaluator_for(env, objective, quick=eval_protocol == "quick") if eval_metrics
                else None)
-  checkpoint_dir = os.path.join(directory, "checkpoint")
   # metrics.csv grows with every evaluation, so that a run stopped before its end (a killed
   # process, a lost machine) still shows its curves up to its last checkpoint.
-  history = (list(checkpoint.read_meta(checkpoint_dir).get("history", []))
-             if resume and checkpoint.exists(checkpoint_dir) else [])
+  history = list(resumed.get("history", []))
   show = training.print_progress if progress is True else (progress or None)
   segments.append(dataclasses.replace(
       this_machine(float(history[-1]["env_steps"]) if history else 0.0),

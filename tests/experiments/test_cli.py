@@ -475,6 +475,9 @@ def test_incompatible_or_existing_run_directories(trained, tmp_path, capsys):
   assert cli.main(["eval", str(damaged)]) == 2
   err = capsys.readouterr().err
   assert "checkpoint.npz is damaged and cannot be read" in err and "another" not in err, err
+  from blx.experiments import runs
+  with pytest.raises(runs.RunError, match=r"checkpoint: .*checkpoint.npz is damaged"):
+    runs.load_run(str(damaged))
   assert len(npz.read_bytes()) == 1000
 
 
