@@ -79,6 +79,7 @@ import paper_tables  # noqa: E402
 from blx.envs.descs import PRO_ANT_STEPS  # noqa: E402
 from blx.experiments import cli, runs  # noqa: E402
 from blx.metrics import mode_balance  # noqa: E402
+from blx.training import config as ppo_config  # noqa: E402
 
 
 @dataclasses.dataclass(frozen=True)
@@ -650,16 +651,26 @@ def _other_settings(path: str, run_spec: runs.RunSpec) -> str:
   """What a label adds where the run in ``path`` was trained with PPO settings other than the
   report's: " (a 10 M budget)" for another budget (an arm of an earlier, shorter report, kept until
   its rerun finishes), " (trained with entropy_cost=0.1)" for any other setting (e.g. a report
-  drawn without the ``--config`` its arms trained with); else ""."""
+  drawn without the ``--config`` its arms trained with); else "". What the run trained with is
+  every setting its provenance recorded, else its config.json's (``runs.settings_as_trained``):
+  a setting it took from a default that moved since is named too ("eval_actions='mean'")."""
   if not os.path.exists(os.path.join(path, "config.json")):
     return ""
-  trained, asked = (s.ppo for s in (runs.read_spec(path), run_spec))
-  steps, asked_steps = trained.get("num_timesteps"), asked.get("num_timesteps")
+  spec = runs.read_spec(path)
+  steps, asked_steps = spec.ppo.get("num_timesteps"), run_spec.ppo.get("num_timesteps")
   note = (f" (a {steps / 1e6:g} M budget)" if steps and asked_steps and steps != asked_steps
           else "")
-  other = [f"{key}={trained[key]!r}" if key in trained else f"the row's {key}"
+
+  def plain(value):  # a recorded tuple reads back from JSON as a list
+    return tuple(value) if isinstance(value, list) else value
+
+  row = dataclasses.asdict(ppo_config.ppo_defaults(spec.env))
+  trained = {**row, **runs.settings_as_trained(spec.ppo, runs.read_provenance(path))}
+  asked = {**row, **run_spec.ppo}
+  other = [f"the row's {key}" if plain(trained.get(key)) == row.get(key)
+           else f"{key}={plain(trained.get(key))!r}"
            for key in sorted((set(trained) | set(asked)) - {"num_timesteps"})
-           if trained.get(key) != asked.get(key)]
+           if plain(trained.get(key)) != plain(asked.get(key))]
   return note + (f" (trained with {', '.join(other)})" if other else "")
 
 

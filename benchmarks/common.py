@@ -174,13 +174,17 @@ def picked_seeds(run, picked: Sequence[int], key_seed: int) -> tuple:
   return jax.tree.map(lambda x: x[at], run.params), keys
 
 
-def run_label(spec, seeds: str | None = None) -> str:
+def run_label(spec, seeds: str | None = None, *, directory: str | None = None) -> str:
   """"OBJECTIVE on ENV, N seeds" for a run's ``RunSpec``, with the env's edits where it has any
   (an ablation) and, after it, its PPO settings off the env's row (``off_row_text``; e.g.
   "; PPO max_grad_norm 5 (default None)"), so that an option's figure does not read as the
-  paper's row; ``seeds`` replaces "N seeds" (e.g. "seed 3")."""
+  paper's row; ``seeds`` replaces "N seeds" (e.g. "seed 3"). With the run's ``directory``, every
+  setting it trained with is compared (``runs.settings_as_trained``: also one it took from a
+  default that moved since); else those its spec sets."""
   edits = (spec.env_params or {}).get("edits")
   where = f"{spec.env} ({', '.join(f'{k} {v}' for k, v in edits.items())})" if edits else spec.env
-  options = ppo_config.off_row_text(spec.env, spec.ppo)
+  settings = (spec.ppo if directory is None
+              else runs.settings_as_trained(spec.ppo, runs.read_provenance(directory)))
+  options = ppo_config.off_row_text(spec.env, settings)
   return (f"{spec.objective} on {where}, {seeds or f'{len(spec.seeds)} seeds'}"
           + (f"; {options}" if options else ""))

@@ -168,7 +168,8 @@ def plot(directory: str, name: str = "episode_count.json") -> str:
   ax.grid(alpha=0.3)
   ax.legend(fontsize=8)
   spec = runs.read_spec(directory)
-  ax.set_title(plots.fit_title(f"{common.run_label(spec)}: the same policies read\nfrom fewer "
+  label = common.run_label(spec, directory=directory)
+  ax.set_title(plots.fit_title(f"{label}: the same policies read\nfrom fewer "
                                 f"or more episodes (of {result['pool']} per seed)", fig),
                fontsize=10)
   fig.tight_layout()

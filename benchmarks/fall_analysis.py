@@ -269,8 +269,8 @@ def plot(directory: str) -> str:
     ax.set_title(f"each seed at the end ({actions} actions, 10 episodes per skill)", fontsize=9)
     ax.legend(fontsize=7)
     ax.grid(alpha=0.3)
-  return _save(fig, plt, directory, f"{common.run_label(spec)}: how much of the MI the falls take "
-               "(mean ± std over seeds)")
+  return _save(fig, plt, directory, f"{common.run_label(spec, directory=directory)}: how much of "
+               "the MI the falls take (mean ± std over seeds)")
 
 
 def _save(fig, plt, directory: str, title: str) -> str:
@@ -340,7 +340,8 @@ def _plot_dmin(directory, spec, rows, analysis, plt) -> str:
     ax.set_title(f"each seed at the end ({actions} actions, 10 episodes)", fontsize=9)
     ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.02, 1.0))  # off the points
     ax.grid(alpha=0.3)
-  return _save(fig, plt, directory, f"{common.run_label(spec)}: the energy distance and the falls "
+  return _save(fig, plt, directory, f"{common.run_label(spec, directory=directory)}: the energy "
+               "distance and the falls "
                "(mean ± std over seeds)")
 
 

@@ -231,7 +231,8 @@ def main(argv=None) -> int:
   values = {k: np.asarray(v) for k, v in values.items()}
   summary = summary_values(values)
   prior = run.objective.spec.prior
-  result = {"run": os.path.abspath(args.run), "label": common.run_label(run.spec),
+  result = {"run": os.path.abspath(args.run),
+            "label": common.run_label(run.spec, directory=run.directory),
             "indices": [int(i) for i in metrics.eval_indices(run.objective)],
             "obs_scale": float(run.objective.spec.obs_scale),
             "discrete": prior.kind == "categorical", "episodes": args.episodes,

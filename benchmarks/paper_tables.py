@@ -16,7 +16,8 @@
 settings over the env's row), ``--options`` (objective options over the row's, e.g.
 ``'{"target_seed": 3}'``) and ``--steps`` are for ablations: a row trained with any of them is not
 the paper's protocol: ``--compare``, ``--progress`` and ``--plot`` name a run's PPO settings that
-are not the original's (``blx.training.config.off_row``, from its ``config.json``).
+are not the original's (``blx.training.config.off_row``, from its provenance's record of every
+setting it trained with, else its ``config.json``: ``trained_off_row``).
 ``--paired A B`` compares two final evaluations of one row (``eval.json`` files or run directories)
 seed by seed, e.g. an option's arm against the paper's row trained on the same seed numbers.
 ``--first-seed N`` trains seeds N .. N + seeds - 1, so that one row's seeds can be split over
@@ -184,10 +185,19 @@ VERDICT_HEADER = ["| env | algorithm | metric | blx (seeds) | paper (10) | Welch
                   "| --- | --- | --- | ---: | ---: | ---: | ---: | --- |"]
 
 
+def trained_off_row(name: str, config: dict) -> dict[str, tuple]:
+  """``off_row`` of the run ``name`` (as ``logged`` names it): every setting it trained with that
+  is not its row's, from its provenance's record where it has one, else from its config.json
+  (``runs.settings_as_trained``), so that a setting taken from a default that moved since is
+  named too."""
+  return off_row(config["env"], runs.settings_as_trained(config.get("ppo"), run_segments(name)))
+
+
 def options_line(name: str, config: dict) -> list[str]:
-  """A line naming ``name``'s settings that are not the original's (``off_row``), or none."""
+  """A line naming ``name``'s settings that are not the original's (``trained_off_row``), or
+  none."""
   changed = [f"{key} {value} (the original's: {default})"
-             for key, (value, default) in off_row(config["env"], config.get("ppo")).items()]
+             for key, (value, default) in trained_off_row(name, config).items()]
   return ([f"{name}: settings not the original's: {'; '.join(changed)}. An option's result, not "
            "the paper's row."] if changed else [])
 
@@ -377,7 +387,7 @@ def draw_progress(path: str, *directories: str) -> list[str]:
       base = os.path.basename(name)
       title = f"{env} {objective}" + ("" if base in (objective, f"objective={objective}")
                                       else f" ({base})")
-      changed = [f"{key} {value}" for key, (value, _) in off_row(env, config.get("ppo")).items()]
+      changed = [f"{key} {value}" for key, (value, _) in trained_off_row(name, config).items()]
       title += f", option {', '.join(changed)}" if changed else ""
       panels.append((title + ("" if finished else ", under training"),
                      _budget(rows) or 0.0, curves))

@@ -160,7 +160,8 @@ def main(argv=None) -> int:
     print(f"{directory}: {len(seeds)} seeds, {xy.shape[1]} skills; reach {far.mean():.1f} +- "
           f"{far.std():.1f} m (per seed: {' '.join(f'{d:.1f}' for d in far)})")
   actions = "mean actions" if args.deterministic else "sampled actions"
-  title = args.title or f"{common.run_label(loaded[0].spec, 'every seed')}: paths ({actions})"
+  label = common.run_label(loaded[0].spec, "every seed", directory=loaded[0].directory)
+  title = args.title or f"{label}: paths ({actions})"
   out = args.out or os.path.join(args.runs[0], "seed_paths.png")
   draw(rows, out, body=" / ".join(sorted(bodies)), title=title)
   common.write_json(os.path.splitext(out)[0] + ".json", summary)

@@ -197,9 +197,10 @@ def plot(run: runs.Run, position: int, *, deterministic: bool) -> str:
     actions = "mean" if analysis["deterministic"] else "sampled"
     ax.set_title(f"every seed: where the variance is ({actions} actions)", fontsize=9)
     ax.legend(fontsize=7, loc="lower right")
+  label = common.run_label(run.spec, f"seed {run.spec.seeds[position]}", directory=run.directory)
   fig.suptitle(plots.fit_title(
-      f"{common.run_label(run.spec, f'seed {run.spec.seeds[position]}')}: MI {mi:.2f} of ln {k} = "
-      f"{math.log(k):.2f} nats on these episodes", fig), fontsize=10)
+      f"{label}: MI {mi:.2f} of ln {k} = {math.log(k):.2f} nats on these episodes", fig),
+      fontsize=10)
   fig.tight_layout()
   path = os.path.join(run.directory, "skill_spread.png")
   fig.savefig(path, dpi=120)

@@ -3,6 +3,7 @@ discriminator maps."""
 
 from __future__ import annotations
 
+import dataclasses
 import os
 import re
 import textwrap
@@ -370,8 +371,9 @@ def write_all(run, history: list[dict], *, seed_index: int = 0, key_seed: int = 
   os.makedirs(out_dir, exist_ok=True)
   written = []
   # A run trained off its env's PPO row says so in every title, e.g. "gcrl on halfcheetah; PPO
-  # max_grad_norm 5 (default None)", so that an option's figure does not read as the row's.
-  options = off_row_text(run.spec.env, run.spec.ppo)
+  # max_grad_norm 5 (default None)", so that an option's figure does not read as the row's: every
+  # setting it trained with (``run.config``), also one it took from a default that moved since.
+  options = off_row_text(run.spec.env, dataclasses.asdict(run.config))
   trained = f"{run.objective.name} on {run.spec.env}" + (f"; {options}" if options else "")
   if history:
     path = os.path.join(out_dir, "training_curves.png")

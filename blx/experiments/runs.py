@@ -11,8 +11,10 @@ A run directory holds:
 * ``eval.json``: the finished run's final metrics (written when training ends, or by ``blx eval``),
   with the machine that evaluated them and the env steps the parameters trained; never written
   for an unfinished run, as a sweep takes a point that has one as done;
-* ``provenance.json``: where each process that trained the run ran (device, versions) and over
-  which env steps (``read_provenance``), so that wall times are compared on like machines;
+* ``provenance.json``: where each process that trained the run ran (device, versions), over
+  which env steps and with which PPO settings, every one (``read_provenance``), so that wall times
+  are compared on like machines and reports name the settings a run trained with
+  (``settings_as_trained``);
 * ``plots/``: ``training_curves.png``, and ``skills.png`` (each skill's cloud in the feature space)
   and ``paths.png`` (where each skill takes the agent) for MI-max, or ``density.png`` and
   ``discriminator.png`` for D-min;
@@ -37,11 +39,13 @@ import numpy as np
 from blx import envs, metrics, objectives, training
 from blx.experiments import plots
 from blx.training import checkpoint
+from blx.training.config import UNRECORDED_SETTINGS
 
 __all__ = ["FORMAT_VERSION", "RunSpec", "Run", "RunError", "build", "load_run", "write_config",
            "write_metrics_csv", "default_obs_indices", "evaluator_for", "evaluate_run",
            "evaluate_run_keys", "summarise", "read_spec", "train_run", "evaluation", "write_eval",
-           "Segment", "this_machine", "read_provenance", "EVAL_PROTOCOLS", "check_eval_protocol"]
+           "Segment", "this_machine", "read_provenance", "settings_as_trained", "EVAL_PROTOCOLS",
+           "check_eval_protocol"]
 
 FORMAT_VERSION = 1
 PROVENANCE = "provenance.json"
@@ -92,6 +96,10 @@ class Segment:
   # paper's goals, from session 41 on; None in segments written before, whose goals were
   # "partitionable" (other goals from the same key; RESULTS, session 41).
   lgr_goals: str | None = None
+  # Every PPO setting this process trained with (``PPOConfig``'s fields, as JSON), the row's
+  # included: config.json names only those the run sets itself. None in segments written before
+  # session 60 (``settings_as_trained``).
+  ppo: dict | None = None
 
 
 def this_machine(from_env_steps: float = 0.0) -> Segment:
@@ -131,6 +139,19 @@ def read_provenance(directory: str, filename: str = PROVENANCE) -> list[Segment]
   except (ValueError, KeyError, TypeError, AttributeError) as e:
     raise RunError(f"{path}: not a provenance file of blx ({e}); move it aside to go on with "
                    "the run without its record of machines") from None
+
+
+def settings_as_trained(ppo: dict | None, segments: Sequence[Segment]) -> dict:
+  """The PPO settings a run trained with, as far as its files tell (field -> value, as
+  ``config.json``'s ``ppo`` holds them), for ``training.config.off_row`` to compare with its row:
+  every setting, as its last segment recorded them (``Segment.ppo``), where it did; else its own
+  (``ppo``, config.json's) over ``UNRECORDED_SETTINGS``, those that every run recording none took
+  whatever blx's defaults are now. A report that labels a run by config.json alone would miss a
+  setting it took from a default that has moved since."""
+  for segment in reversed(segments):
+    if segment.ppo is not None:
+      return dict(segment.ppo)
+  return {**UNRECORDED_SETTINGS, **(ppo or {})}
 
 
 def _write_provenance(directory: str, segments: list[Segment]) -> None:
@@ -493,7 +514,7 @@ def train_run(spec: RunSpec, directory: str, *, resume: bool = False, progress=T
   show = training.print_progress if progress is True else (progress or None)
   segments.append(dataclasses.replace(
       this_machine(float(history[-1]["env_steps"]) if history else 0.0),
-      eval_protocol=eval_protocol if eval_metrics else None))
+      eval_protocol=eval_protocol if eval_metrics else None, ppo=dataclasses.asdict(config)))
   _write_provenance(directory, segments)
 
   def report(row: dict) -> None:

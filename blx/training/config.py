@@ -9,7 +9,8 @@ from typing import Any, Mapping
 
 from blx.options import check_names
 
-__all__ = ["PPOConfig", "ppo_defaults", "check_seeds", "off_row", "off_row_text"]
+__all__ = ["PPOConfig", "ppo_defaults", "check_seeds", "off_row", "off_row_text",
+           "UNRECORDED_SETTINGS"]
 
 MAX_INT = 2**31 - 1  # step and iteration counters are 32-bit on the device
 # How the evaluation after each chunk acts (``PPOConfig.eval_actions``): blx's default first.
@@ -247,6 +248,13 @@ def ppo_defaults(env_name: str | None = None, **overrides: Any) -> PPOConfig:
 # out. ``eval_actions`` is not among them: it changes what the run's curves measure, so a run
 # evaluated as the original ("sampled") says so wherever its settings are named.
 BOOKKEEPING = ("num_timesteps", "num_evals", "num_eval_envs", "checkpoint_env_state")
+
+# The settings every run trained with that records none of its own (its provenance.json's
+# segments written before session 60, which did not yet hold ``Segment.ppo``), whatever blx's
+# defaults are now: where a default of PPOConfig moves, its value before the move goes here, so
+# that a report still names such a run's setting beside a row under the new default
+# (``runs.settings_as_trained``). eval_actions: every run before session 60 took the mean action.
+UNRECORDED_SETTINGS: dict[str, Any] = {"eval_actions": "mean"}
 
 
 def off_row(env_name: str | None, ppo: Mapping[str, Any] | None) -> dict[str, tuple]:

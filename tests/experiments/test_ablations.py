@@ -630,6 +630,43 @@ def test_a_report_names_the_ppo_settings_its_arms_trained_with_over_the_row(tmp_
   assert "trained with" not in rows[1]
 
 
+def test_a_report_names_a_setting_an_arm_took_from_a_default_that_moved_since(tmp_path,
+                                                                              monkeypatch):
+  import json
+  import types
+  from blx.experiments import runs
+  from blx.training import config as ppo_config
+  study = ablations.STUDIES["legs_original"]
+  spec = ablations.spec(study, "ant", 2, steps=3000)
+  (older, older_spec), (recorded, recorded_spec) = sweep.expand(spec)[:2]
+  for name, run_spec in ((older, older_spec), (recorded, recorded_spec)):
+    runs.write_config(str(tmp_path / name), run_spec, types.SimpleNamespace(desc={}))
+    _write_metrics(tmp_path / name / "metrics.csv", {(0, 1000): 1.0, (1, 1000): 2.0},
+                   key="eval/episode_score")
+  # Neither config.json sets eval_actions. The older arm records no settings (before session
+  # 60: the mean action); the other's provenance records every setting it trained with.
+  segment = {"started": "2026-11-30T00:00:00Z", "from_env_steps": 0.0, "to_env_steps": 1000.0,
+             "device": "cpu", "platform": "cpu", "device_count": 1, "versions": {}}
+  sampled = dataclasses.asdict(ppo_config.ppo_defaults("pro_ant_run", eval_actions="sampled",
+                                                       num_timesteps=3000))
+  (tmp_path / recorded / "provenance.json").write_text(json.dumps(
+      {"segments": [{**segment, "ppo": sampled}]}))
+
+  def labels():
+    table = ablations.report("legs_original", study, str(tmp_path), spec)
+    return [r.split(" | ")[0] for r in table.splitlines() if "eval/episode_score" in r][:2]
+
+  assert "trained with" not in labels()[0]
+  assert "(trained with eval_actions='sampled')" in labels()[1]
+  # blx's default moves to sampled: the older arm is named for its mean action, the other not.
+  row = ppo_config.ppo_defaults
+  monkeypatch.setattr(ppo_config, "ppo_defaults",
+                      lambda env=None, **kw: row(env, **{"eval_actions": "sampled", **kw}))
+  older_label, recorded_label = labels()
+  assert "(trained with eval_actions='mean')" in older_label
+  assert "trained with" not in recorded_label
+
+
 def test_a_task_study_compares_the_training_reward_where_one_episodes_score_dips(tmp_path):
   # A task study's evaluation is one episode per seed (the mean action from a reset without
   # noise): one seed's dip can hide a difference the training reward, over every env, still shows

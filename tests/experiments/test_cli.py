@@ -575,6 +575,14 @@ def test_a_run_goes_on_and_is_evaluated_with_the_settings_it_trained_with_after_
   done = runs.train_run(spec, out, resume=True, progress=None)
   assert (done.config.eval_actions, done.config.entropy_cost) == began
   assert os.path.exists(os.path.join(out, "eval.json"))
+  # Each process recorded every setting it trained with, so that a report reading the run's
+  # files (config.json names neither setting) names them beside the moved row.
+  segments = runs.read_provenance(out)
+  assert [s.ppo for s in segments] == [json.loads(json.dumps(dataclasses.asdict(done.config)))] * 2
+  trained = runs.settings_as_trained(runs.read_spec(out).ppo, segments)
+  monkeypatch.setattr(training.config, "ppo_defaults", training.ppo_defaults)
+  named = training.config.off_row("point", trained)  # TINY_CONFIG's own settings too
+  assert (named["eval_actions"], named["entropy_cost"]) == (("mean", "sampled"), (1e-3, 0.05))
   # A setting the run sets itself is its own: one that contradicts the checkpoint is refused.
   other = dataclasses.replace(spec, ppo={**spec.ppo, "entropy_cost": 0.05})
   with pytest.raises(ValueError, match="different config"):

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from blx import objectives
+from blx import objectives, training
 from blx.experiments import plots
 
 
@@ -208,14 +208,21 @@ def test_a_run_trained_off_its_envs_ppo_row_says_so_in_its_plots_titles(tmp_path
   titles = []
   monkeypatch.setattr(plots, "training_curves",
                       lambda history, path, **kw: titles.append(kw["title"]))
-  for ppo in ({"max_grad_norm": 5, "num_evals": 40}, {"num_evals": 40}):
+  row = training.ppo_defaults("halfcheetah")
+  # The third run's config.json sets nothing, but it trained with sampled actions, a default that
+  # has moved since (run.config: as load_run rebuilds it): its title names the setting.
+  for ppo, config in (({"max_grad_norm": 5, "num_evals": 40}, {}), ({"num_evals": 40}, {}),
+                      ({}, {"eval_actions": "sampled"})):
     run = SimpleNamespace(directory=str(tmp_path), params=None,
                           objective=objectives.diayn(num_skills=2, obs_indices=(0,)),
                           spec=runs.RunSpec(env="halfcheetah", objective="diayn",
-                                            objective_options={}, ppo=ppo))
+                                            objective_options={}, ppo=ppo),
+                          config=row.replace(**ppo, **config))
     plots.write_all(run, [{"env_steps": 1.0, "eval/mi": [0.1]}])
   assert titles == ["diayn on halfcheetah; PPO max_grad_norm 5 (default None): training curves",
-                    "diayn on halfcheetah: training curves"]
+                    "diayn on halfcheetah: training curves",
+                    "diayn on halfcheetah; PPO eval_actions sampled (default mean): training "
+                    "curves"]
 
 
 def test_fit_title_wraps_each_line_to_the_figures_width_and_keeps_every_word():
