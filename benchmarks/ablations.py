@@ -456,8 +456,8 @@ def ran_on(segments: list[runs.Segment]) -> str:
   """The devices a run trained on, in order (``runs.read_provenance``), e.g. "NVIDIA H200, then
   NVIDIA H100 80GB HBM3"; "not recorded" for a run from before blx recorded them, and for the env
   steps a run took before it did (a run begun by an older blx and resumed by a newer one):
-  "not recorded to 37.4 M steps, then NVIDIA H200". A process that trained no env steps (one
-  that failed before its first chunk ended, or evaluated a finished run) is left out."""
+  "not recorded to 37.4 M steps, then NVIDIA H200". A process that kept no env steps (one that
+  stopped or failed before its first checkpoint, or evaluated a finished run) is left out."""
   kinds, reached = [], 0.0
   for segment in segments:
     if segment.to_env_steps <= segment.from_env_steps:

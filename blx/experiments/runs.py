@@ -85,8 +85,12 @@ class Segment:
   trained, and over which env steps per seed."""
 
   started: str            # when the process took the run up, UTC, ISO 8601
-  from_env_steps: float   # the run's env steps then (0 for a new run)
-  to_env_steps: float     # the run's env steps at this process's last evaluation
+  # The run's env steps when the process took it up (0 for a new run) and at its last checkpoint:
+  # within a chunk for a run trained in segments and stopped between evaluations. Segments
+  # written before session 60 count both at evaluations (a process that stopped mid-chunk reads
+  # as ending at its last evaluation, and the next as starting there).
+  from_env_steps: float
+  to_env_steps: float
   device: str             # jax's device kind, e.g. "NVIDIA H100 80GB HBM3" ("cpu" on a CPU)
   platform: str           # "gpu", "cpu" or "tpu"
   device_count: int       # the devices jax saw
@@ -512,9 +516,14 @@ def train_run(spec: RunSpec, directory: str, *, resume: bool = False, progress=T
   # process, a lost machine) still shows its curves up to its last checkpoint.
   history = list(resumed.get("history", []))
   show = training.print_progress if progress is True else (progress or None)
+  # The steps the checkpoint holds, past its last evaluation where it stopped mid-chunk (a
+  # checkpoint from before blx recorded them: its last evaluation's).
+  start = resumed.get("env_steps")
+  if start is None:
+    start = history[-1]["env_steps"] if history else 0.0
   segments.append(dataclasses.replace(
-      this_machine(float(history[-1]["env_steps"]) if history else 0.0),
-      eval_protocol=eval_protocol if eval_metrics else None, ppo=dataclasses.asdict(config)))
+      this_machine(float(start)), eval_protocol=eval_protocol if eval_metrics else None,
+      ppo=dataclasses.asdict(config)))
   _write_provenance(directory, segments)
 
   def report(row: dict) -> None:
@@ -525,8 +534,12 @@ def train_run(spec: RunSpec, directory: str, *, resume: bool = False, progress=T
     if show:
       show(row)
 
-  result = training.train(env, objective, config, seeds=spec.seeds, progress=report,
-                          checkpoint_dir=checkpoint_dir, resume=resume, evaluate=evaluator)
+  try:
+    result = training.train(env, objective, config, seeds=spec.seeds, progress=report,
+                            checkpoint_dir=checkpoint_dir, resume=resume, evaluate=evaluator)
+  except BaseException:  # stopped (Ctrl-C, a device call's limit) or failed: the steps it kept
+    _to_last_checkpoint(directory, checkpoint_dir, segments)
+    raise
   write_metrics_csv(os.path.join(directory, "metrics.csv"), result.metrics, spec.seeds)
   run = Run(directory, spec, env, objective, config, result.params, result.policy,
             {"history": result.metrics})
@@ -534,6 +547,21 @@ def train_run(spec: RunSpec, directory: str, *, resume: bool = False, progress=T
   run.meta["plots"] = plots.write_all(run, result.metrics,
                                       lgr_goals_from=lgr_goals_switch(segments))
   return run
+
+
+def _to_last_checkpoint(directory: str, checkpoint_dir: str, segments: list[Segment]) -> None:
+  """Ends this process's segment (the last) at the env steps of the run's last checkpoint where
+  it wrote one after its last evaluation (a chunk trained in segments, stopped between
+  evaluations), so that provenance.json counts the steps it kept; a checkpoint it cannot read
+  leaves the segment as it is."""
+  try:
+    steps = (checkpoint.read_meta(checkpoint_dir).get("env_steps")
+             if checkpoint.exists(checkpoint_dir) else None)
+  except checkpoint.CheckpointError:
+    return
+  if steps is not None and float(steps) > segments[-1].to_env_steps:
+    segments[-1] = dataclasses.replace(segments[-1], to_env_steps=float(steps))
+    _write_provenance(directory, segments)
 
 
 def segment_at(segments: list[Segment] | tuple, env_steps: float) -> Segment | None:

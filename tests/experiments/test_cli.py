@@ -154,6 +154,9 @@ def test_an_unfinished_run_is_evaluated_where_it_stands_and_its_sweep_trains_it_
   per_iteration = 1600 / 10
   rows = list(csv.DictReader(open(os.path.join(point, "metrics.csv"))))
   assert [float(r["env_steps"]) for r in rows] == [5 * per_iteration]
+  # provenance.json counts the steps the process kept: to its last checkpoint, not evaluation
+  [stopped] = runs.read_provenance(point)
+  assert (stopped.from_env_steps, stopped.to_env_steps) == (0.0, 8 * per_iteration)
 
   # blx eval scores it as it stands, names how far it trained, and writes no eval.json
   capsys.readouterr()
@@ -183,6 +186,9 @@ def test_an_unfinished_run_is_evaluated_where_it_stands_and_its_sweep_trains_it_
   final = json.load(open(os.path.join(point, "eval.json")))
   assert final["env_steps"] == 1600 and rows_out[0]["summary"] == final["summary"]
   assert runs.load_run(point).finished
+  # and the process that went on took the run up where the checkpoint stood, within the chunk
+  assert [(s.from_env_steps, s.to_env_steps) for s in runs.read_provenance(point)] == [
+      (0.0, 8 * per_iteration), (8 * per_iteration, 1600.0)]
 
 
 def test_eval_metrics_only_gives_the_evaluators_values_without_the_return_episodes(trained,
