@@ -552,16 +552,17 @@ def train_run(spec: RunSpec, directory: str, *, resume: bool = False, progress=T
 def _to_last_checkpoint(directory: str, checkpoint_dir: str, segments: list[Segment]) -> None:
   """Ends this process's segment (the last) at the env steps of the run's last checkpoint where
   it wrote one after its last evaluation (a chunk trained in segments, stopped between
-  evaluations), so that provenance.json counts the steps it kept; a checkpoint it cannot read
-  leaves the segment as it is."""
+  evaluations), so that provenance.json counts the steps it kept; a checkpoint it cannot read,
+  or a record it cannot write, leaves the segment as it is (the error that stopped the process is
+  the one raised)."""
   try:
     steps = (checkpoint.read_meta(checkpoint_dir).get("env_steps")
              if checkpoint.exists(checkpoint_dir) else None)
-  except checkpoint.CheckpointError:
+    if steps is not None and float(steps) > segments[-1].to_env_steps:
+      segments[-1] = dataclasses.replace(segments[-1], to_env_steps=float(steps))
+      _write_provenance(directory, segments)
+  except (checkpoint.CheckpointError, OSError):
     return
-  if steps is not None and float(steps) > segments[-1].to_env_steps:
-    segments[-1] = dataclasses.replace(segments[-1], to_env_steps=float(steps))
-    _write_provenance(directory, segments)
 
 
 def segment_at(segments: list[Segment] | tuple, env_steps: float) -> Segment | None:
