@@ -193,12 +193,7 @@ class Run(NamedTuple):
     run that trains in segments (``train(checkpoint_segments=...)``) and stopped mid-chunk, is past
     its last evaluation; else its last evaluation's (a checkpoint older than the count); None
     without a checkpoint."""
-    if self.params is None:
-      return None
-    steps = self.meta.get("env_steps")
-    if steps is None:
-      steps = ((self.meta.get("history") or [{}])[-1]).get("env_steps")
-    return None if steps is None else float(steps)
+    return None if self.params is None else training.checkpoint_env_steps(self.meta)
 
   @property
   def finished(self) -> bool:
@@ -516,13 +511,10 @@ def train_run(spec: RunSpec, directory: str, *, resume: bool = False, progress=T
   # process, a lost machine) still shows its curves up to its last checkpoint.
   history = list(resumed.get("history", []))
   show = training.print_progress if progress is True else (progress or None)
-  # The steps the checkpoint holds, past its last evaluation where it stopped mid-chunk (a
-  # checkpoint from before blx recorded them: its last evaluation's).
-  start = resumed.get("env_steps")
-  if start is None:
-    start = history[-1]["env_steps"] if history else 0.0
+  # from the steps the checkpoint holds, past its last evaluation where it stopped mid-chunk
+  start = training.checkpoint_env_steps(resumed) or 0.0
   segments.append(dataclasses.replace(
-      this_machine(float(start)), eval_protocol=eval_protocol if eval_metrics else None,
+      this_machine(start), eval_protocol=eval_protocol if eval_metrics else None,
       ppo=dataclasses.asdict(config)))
   _write_provenance(directory, segments)
 
@@ -556,10 +548,10 @@ def _to_last_checkpoint(directory: str, checkpoint_dir: str, segments: list[Segm
   or a record it cannot write, leaves the segment as it is (the error that stopped the process is
   the one raised)."""
   try:
-    steps = (checkpoint.read_meta(checkpoint_dir).get("env_steps")
+    steps = (training.checkpoint_env_steps(checkpoint.read_meta(checkpoint_dir))
              if checkpoint.exists(checkpoint_dir) else None)
-    if steps is not None and float(steps) > segments[-1].to_env_steps:
-      segments[-1] = dataclasses.replace(segments[-1], to_env_steps=float(steps))
+    if steps is not None and steps > segments[-1].to_env_steps:
+      segments[-1] = dataclasses.replace(segments[-1], to_env_steps=steps)
       _write_provenance(directory, segments)
   except (checkpoint.CheckpointError, OSError):
     return

@@ -23,7 +23,7 @@ from blx.training.ppo import (PolicyParams, Trainer, TrainState, make_trainer, p
 
 __all__ = ["TrainResult", "train", "run_keys", "NonFiniteError", "evaluate_together", "compile_all",
            "parallel_compile_default", "restore_state", "drop_env_state", "segment_length",
-           "checkpoint_finished", "checkpoint_progress", "config_as_trained"]
+           "checkpoint_finished", "checkpoint_progress", "checkpoint_env_steps", "config_as_trained"]
 
 
 class NonFiniteError(FloatingPointError):
@@ -266,6 +266,17 @@ def checkpoint_finished(meta: dict) -> bool:
   run's meta built from its result, which is whole) is taken as finished."""
   total = meta.get("num_chunks")
   return total is None or (meta.get("chunk") == total and not meta.get("partial"))
+
+
+def checkpoint_env_steps(meta: dict) -> float | None:
+  """The env steps per seed the state of a checkpoint (its metadata, ``train``'s) has trained: its
+  own count, which for a run trained in segments and stopped mid-chunk is past its last
+  evaluation; else, for a checkpoint written before the count, its last evaluation's; None for
+  neither."""
+  steps = meta.get("env_steps")
+  if steps is None:
+    steps = ((meta.get("history") or [{}])[-1]).get("env_steps")
+  return None if steps is None else float(steps)
 
 
 def checkpoint_progress(meta: dict, iterations_per_chunk: int | None = None) -> str:
