@@ -23,7 +23,8 @@ from blx.training.ppo import (PolicyParams, Trainer, TrainState, make_trainer, p
 
 __all__ = ["TrainResult", "train", "run_keys", "NonFiniteError", "evaluate_together", "compile_all",
            "parallel_compile_default", "restore_state", "drop_env_state", "segment_length",
-           "checkpoint_finished", "checkpoint_progress", "checkpoint_env_steps", "config_as_trained"]
+           "checkpoint_finished", "checkpoint_progress", "checkpoint_env_steps",
+           "config_as_trained"]
 
 
 class NonFiniteError(FloatingPointError):
