@@ -647,13 +647,15 @@ def _timed(rows: list[dict]) -> bool:
   return all(row.get("time") for row in rows)
 
 
-def _other_settings(path: str, run_spec: runs.RunSpec) -> str:
+def _other_settings(path: str, run_spec: runs.RunSpec, *, returns: bool = True) -> str:
   """What a label adds where the run in ``path`` was trained with PPO settings other than the
   report's: " (a 10 M budget)" for another budget (an arm of an earlier, shorter report, kept until
   its rerun finishes), " (trained with entropy_cost=0.1)" for any other setting (e.g. a report
   drawn without the ``--config`` its arms trained with); else "". What the run trained with is
   every setting its provenance recorded, else its config.json's (``runs.settings_as_trained``):
-  a setting it took from a default that moved since is named too ("eval_actions='mean'")."""
+  a setting it took from a default that moved since is named too ("eval_actions='mean'"), where
+  ``returns`` (the study reports the return episodes, ``eval/episode_*``: else the settings of
+  those alone, ``ppo_config.RETURN_SETTINGS``, are left out)."""
   if not os.path.exists(os.path.join(path, "config.json")):
     return ""
   spec = runs.read_spec(path)
@@ -669,7 +671,8 @@ def _other_settings(path: str, run_spec: runs.RunSpec) -> str:
   asked = {**row, **run_spec.ppo}
   other = [f"the row's {key}" if plain(trained.get(key)) == row.get(key)
            else f"{key}={plain(trained.get(key))!r}"
-           for key in sorted((set(trained) | set(asked)) - {"num_timesteps"})
+           for key in sorted((set(trained) | set(asked)) - {"num_timesteps"}
+                             - (set() if returns else set(ppo_config.RETURN_SETTINGS)))
            if plain(trained.get(key)) != plain(asked.get(key))]
   return note + (f" (trained with {', '.join(other)})" if other else "")
 
@@ -695,11 +698,12 @@ def report(study_name: str, study: Study, directory: str, sweep_spec: dict,
   import matplotlib.pyplot as plt
   from blx.experiments import plots, sweep
   arms, curves, labels, objectives, styles, devices = {}, {}, {}, {}, {}, {}
+  returns = any(metric.startswith("eval/episode_") for metric in study.metrics)
   for name, run_spec in sweep.expand(sweep_spec):
     path = os.path.join(directory, name)
     if not os.path.exists(os.path.join(path, "metrics.csv")):
       continue
-    labels[name] = study.label(name, run_spec) + _other_settings(path, run_spec)
+    labels[name] = study.label(name, run_spec) + _other_settings(path, run_spec, returns=returns)
     objectives[name] = run_spec.objective
     styles[name] = study.style(run_spec)
     devices[name] = runs.read_provenance(path)

@@ -180,11 +180,12 @@ def run_label(spec, seeds: str | None = None, *, directory: str | None = None) -
   "; PPO max_grad_norm 5 (default None)"), so that an option's figure does not read as the
   paper's row; ``seeds`` replaces "N seeds" (e.g. "seed 3"). With the run's ``directory``, every
   setting it trained with is compared (``runs.settings_as_trained``: also one it took from a
-  default that moved since); else those its spec sets."""
+  default that moved since); else those its spec sets. The analyses roll out episodes of their
+  own, so the settings of the run's return episodes alone (``eval_actions``) are left out."""
   edits = (spec.env_params or {}).get("edits")
   where = f"{spec.env} ({', '.join(f'{k} {v}' for k, v in edits.items())})" if edits else spec.env
   settings = (spec.ppo if directory is None
               else runs.settings_as_trained(spec.ppo, runs.read_provenance(directory)))
-  options = ppo_config.off_row_text(spec.env, settings)
+  options = ppo_config.off_row_text(spec.env, settings, returns=False)
   return (f"{spec.objective} on {where}, {seeds or f'{len(spec.seeds)} seeds'}"
           + (f"; {options}" if options else ""))

@@ -17,7 +17,8 @@ settings over the env's row), ``--options`` (objective options over the row's, e
 ``'{"target_seed": 3}'``) and ``--steps`` are for ablations: a row trained with any of them is not
 the paper's protocol: ``--compare``, ``--progress`` and ``--plot`` name a run's PPO settings that
 are not the original's (``blx.training.config.off_row``, from its provenance's record of every
-setting it trained with, else its ``config.json``: ``trained_off_row``).
+setting it trained with, else its ``config.json``: ``trained_off_row``), but for how its return
+episodes act (``eval_actions``), which the paper's metrics do not depend on.
 ``--paired A B`` compares two final evaluations of one row (``eval.json`` files or run directories)
 seed by seed, e.g. an option's arm against the paper's row trained on the same seed numbers.
 ``--first-seed N`` trains seeds N .. N + seeds - 1, so that one row's seeds can be split over
@@ -189,8 +190,10 @@ def trained_off_row(name: str, config: dict) -> dict[str, tuple]:
   """``off_row`` of the run ``name`` (as ``logged`` names it): every setting it trained with that
   is not its row's, from its provenance's record where it has one, else from its config.json
   (``runs.settings_as_trained``), so that a setting taken from a default that moved since is
-  named too."""
-  return off_row(config["env"], runs.settings_as_trained(config.get("ppo"), run_segments(name)))
+  named too; but for those of the return episodes alone (``eval_actions``), which the paper's
+  metrics, the tables' only ones, do not depend on."""
+  return off_row(config["env"], runs.settings_as_trained(config.get("ppo"), run_segments(name)),
+                 returns=False)
 
 
 def options_line(name: str, config: dict) -> list[str]:

@@ -279,8 +279,8 @@ def _eval_actions(text: str | None) -> str | None:
   values, checked before the run is loaded and compiled."""
   from blx.training.config import EVAL_ACTIONS
   if text is not None and text not in EVAL_ACTIONS:
-    raise UsageError(f"--eval-actions {text!r}: give one of {', '.join(EVAL_ACTIONS)} (the mean "
-                     "action, blx's default, or sampled actions, as Braxlines' PPO evaluates)")
+    raise UsageError(f"--eval-actions {text!r}: give one of {', '.join(EVAL_ACTIONS)} (sampled "
+                     "actions, blx's default, as Braxlines' PPO evaluates, or the mean action)")
   return text
 
 
@@ -472,10 +472,10 @@ def _parser() -> argparse.ArgumentParser:
                  help="with --key-seeds: the objective's metrics alone (MI, H(s), LGR, energy "
                       "distance, ...), without the trainer's return episodes (num_eval_envs per "
                       "seed), which cost most of an evaluation on a CPU")
-  p.add_argument("--eval-actions", default=None, metavar="mean|sampled",
-                 help="how the return episodes act, where not as the run's config (its "
-                      "eval_actions; blx's default is mean): sampled evaluates as Braxlines' PPO; "
-                      "eval.json is then not written")
+  p.add_argument("--eval-actions", default=None, metavar="sampled|mean",
+                 help="how the return episodes act, where not as the run's own (its "
+                      "eval_actions: blx's default is sampled, as Braxlines' PPO evaluates; runs "
+                      "before session 61 took mean); eval.json is then not written")
   p.set_defaults(fn=cmd_eval)
 
   p = sub.add_parser("render", help="a video of rollouts (one per skill for MI-max)")

@@ -10,11 +10,11 @@ from typing import Any, Mapping
 from blx.options import check_names
 
 __all__ = ["PPOConfig", "ppo_defaults", "check_seeds", "off_row", "off_row_text",
-           "UNRECORDED_SETTINGS"]
+           "UNRECORDED_SETTINGS", "RETURN_SETTINGS"]
 
 MAX_INT = 2**31 - 1  # step and iteration counters are 32-bit on the device
 # How the evaluation after each chunk acts (``PPOConfig.eval_actions``): blx's default first.
-EVAL_ACTIONS = ("mean", "sampled")
+EVAL_ACTIONS = ("sampled", "mean")
 ORIGINAL_NUM_ENVS = 2048  # Braxlines' num_envs in every row of its defaults
 
 
@@ -58,15 +58,17 @@ class PPOConfig:
   uninterrupted run.
 
   ``eval_actions``: how the ``num_eval_envs`` episodes of the evaluation after each chunk
-  (``eval/episode_reward``, ``eval/episode_score``, ...) act. ``"mean"`` (the default, blx's; a
-  deviation from the original) takes the policy's mean action: where the env's reset has no noise
+  (``eval/episode_reward``, ``eval/episode_score``, ...) act. ``"sampled"`` (the default, the
+  original's) samples the actions, as Braxlines' PPO does (its evaluation on 128 envs samples from
+  the policy, braxlines/training/ppo.py at the paper's commit), so that the evaluation averages
+  over the policy's episodes. ``"mean"`` (an option; blx's default until session 61, and so what
+  every run before then took) takes the policy's mean action: where the env's reset has no noise
   and the objective no latent (a Composer task such as ``pro_ant_run``) every episode is then the
-  same episode, one trajectory per seed. ``"sampled"`` samples the actions, as Braxlines' PPO does
-  (its evaluation on 128 envs samples from the policy, braxlines/training/ppo.py at the paper's
-  commit), so that the evaluation averages over the policy's episodes. The paper's metrics (MI,
-  LGR, energy distance) have evaluators of their own, which sample as the paper's, whichever this
-  is. A setting of the evaluation, not of learning; a resumed run keeps the one it began with,
-  also where blx's default moves after (``training.config_as_trained``).
+  same episode, one trajectory per seed. The paper's metrics (MI, LGR, energy distance) have
+  evaluators of their own, which sample as the paper's, whichever this is. A setting of the
+  evaluation, not of learning; a resumed run keeps the one it began with, also where blx's
+  default moved after (``training.config_as_trained``; a checkpoint that does not record it took
+  ``UNRECORDED_SETTINGS``' mean action).
   """
 
   num_timesteps: int = 30_000_000
@@ -91,7 +93,7 @@ class PPOConfig:
   value_hidden: tuple[int, ...] = (256, 256, 256, 256, 256)
   num_evals: int = 20
   num_eval_envs: int = 128
-  eval_actions: str = "mean"
+  eval_actions: str = "sampled"
 
   def __post_init__(self):
     positive = ("num_timesteps", "num_envs", "unroll_length",
@@ -246,31 +248,43 @@ def ppo_defaults(env_name: str | None = None, **overrides: Any) -> PPOConfig:
 
 # PPO settings that set a run's length and bookkeeping, not how it learns: ``off_row`` leaves them
 # out. ``eval_actions`` is not among them: it changes what the run's curves measure, so a run
-# evaluated as the original ("sampled") says so wherever its settings are named.
+# evaluated with the mean action, not as the original, says so wherever its settings are named.
 BOOKKEEPING = ("num_timesteps", "num_evals", "num_eval_envs", "checkpoint_env_state")
+# Settings of the return episodes alone (the evaluation after each chunk: ``eval/episode_*``). The
+# paper's metrics (MI, H(s), LGR, energy distance) have evaluators of their own, so a report of
+# those, or an analysis that rolls out its own episodes, leaves these out (``off_row``'s
+# ``returns=False``).
+RETURN_SETTINGS = ("eval_actions",)
 
 # The settings every run trained with that records none of its own (its provenance.json's
 # segments written before session 60, which did not yet hold ``Segment.ppo``), whatever blx's
 # defaults are now: where a default of PPOConfig moves, its value before the move goes here, so
 # that a report still names such a run's setting beside a row under the new default
-# (``runs.settings_as_trained``). eval_actions: every run before session 60 took the mean action.
+# (``runs.settings_as_trained``), and a checkpoint that does not record it resumes and is
+# evaluated with it (``loop.config_as_trained``). eval_actions: the default moved from the mean
+# action to the original's sampled ones in session 61; every run before took the mean action.
 UNRECORDED_SETTINGS: dict[str, Any] = {"eval_actions": "mean"}
 
 
-def off_row(env_name: str | None, ppo: Mapping[str, Any] | None) -> dict[str, tuple]:
+def off_row(env_name: str | None, ppo: Mapping[str, Any] | None, *,
+            returns: bool = True) -> dict[str, tuple]:
   """The settings of ``ppo`` (``PPOConfig`` field -> value, as a run's ``config.json`` holds them)
   that differ from ``env_name``'s row (``ppo_defaults``; for Ant, Humanoid and HalfCheetah the
   original's), ``{field: (the run's value, the row's)}`` in field order, the run's length and
-  bookkeeping (``BOOKKEEPING``) left out: a run with any learned under an option."""
+  bookkeeping (``BOOKKEEPING``) left out: a run with any learned under an option. ``returns``:
+  whether what is reported includes the return episodes (``eval/episode_*``); False leaves out
+  the settings of those alone (``RETURN_SETTINGS``: eval_actions)."""
   row = dataclasses.asdict(ppo_defaults(env_name))
+  left_out = BOOKKEEPING + (() if returns else RETURN_SETTINGS)
   return {key: (value, row[key]) for key, value in sorted((ppo or {}).items())
-          if key not in BOOKKEEPING and key in row
+          if key not in left_out and key in row
           and (tuple(value) if isinstance(value, list) else value) != row[key]}
 
 
-def off_row_text(env_name: str | None, ppo: Mapping[str, Any] | None) -> str:
+def off_row_text(env_name: str | None, ppo: Mapping[str, Any] | None, *,
+                 returns: bool = True) -> str:
   """``off_row`` for a figure's title or a label: "PPO max_grad_norm 5 (default None)", the
   settings joined by commas, or "" where the run has none."""
-  changed = off_row(env_name, ppo)
+  changed = off_row(env_name, ppo, returns=returns)
   return ("PPO " + ", ".join(f"{key} {value} (default {row})"
                              for key, (value, row) in changed.items()) if changed else "")

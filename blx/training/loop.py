@@ -17,7 +17,7 @@ import numpy as np
 from blx import envs as envs_lib
 from blx.objectives.base import Objective
 from blx.training import checkpoint
-from blx.training.config import PPOConfig, check_seeds
+from blx.training.config import UNRECORDED_SETTINGS, PPOConfig, check_seeds
 from blx.training.ppo import (PolicyParams, Trainer, TrainState, make_trainer, place_state,
                               policy_params, reduce_stats)
 
@@ -147,8 +147,9 @@ def train(env: Any, objective: Objective, config: PPOConfig, *, seeds: Sequence[
   if resume and checkpoint_dir and checkpoint.exists(checkpoint_dir):
     state, meta = restore_state(checkpoint_dir, jax.eval_shape(init_fn, init_keys))
     # A setting added after the checkpoint was written had its default's behaviour then
-    # (staggered_starts: off).
-    then = {**dataclasses.asdict(PPOConfig()), "staggered_starts": False}
+    # (staggered_starts: off; eval_actions and any other whose default moved since:
+    # UNRECORDED_SETTINGS).
+    then = {**dataclasses.asdict(PPOConfig()), "staggered_starts": False, **UNRECORDED_SETTINGS}
     meta = {**meta, "config": {**then, **(meta.get("config") or {})}}
     for key in ("seeds", "config", "objective"):
       if _jsonable(meta.get(key)) != _jsonable(meta_base[key]):
@@ -297,8 +298,12 @@ def config_as_trained(meta: dict, config: PPOConfig,
   (``own``), so where blx's defaults moved since the checkpoint was written, this is the config
   that resumes it (``train`` refuses any other) and evaluates it as it trained. A field in ``own``
   that contradicts the checkpoint is left for ``train`` to refuse; one the checkpoint does not
-  record (added to ``PPOConfig`` since) keeps ``config``'s value."""
+  record (added to ``PPOConfig`` since) trained as every run before it did, where
+  ``UNRECORDED_SETTINGS`` says how (``eval_actions``: the mean action), and else keeps
+  ``config``'s value. A checkpoint without a config records nothing: ``config`` as it is."""
   recorded = meta.get("config") or {}
+  if recorded:
+    recorded = {**UNRECORDED_SETTINGS, **recorded}
   taken = {}
   for field in dataclasses.fields(PPOConfig):
     name, now = field.name, getattr(config, field.name)

@@ -583,14 +583,12 @@ def test_the_wall_time_table_names_the_devices_each_run_trained_on_once_any_reco
 
 
 def test_an_arm_trained_for_another_budget_than_the_reports_is_labelled_with_its_own(tmp_path):
-  import types
-  from blx.experiments import runs
   study = ablations.STUDIES["push_scale"]
   spec = ablations.spec(study, "ant", 2, steps=3000, config={"num_evals": 2})
   (first, first_spec), (second, second_spec) = sweep.expand(spec)[:2]
   for name, run_spec, steps in ((first, first_spec, 3000), (second, second_spec, 1000)):
     trained = dataclasses.replace(run_spec, ppo={**run_spec.ppo, "num_timesteps": steps})
-    runs.write_config(str(tmp_path / name), trained, types.SimpleNamespace(desc={}))
+    _trained(tmp_path / name, trained)
     _write_metrics(tmp_path / name / "metrics.csv", {(0, 1000): 1.0, (1, 1000): 2.0},
                    key="eval/episode_score")
   table = ablations.report("push_scale", study, str(tmp_path), spec)
@@ -599,16 +597,28 @@ def test_an_arm_trained_for_another_budget_than_the_reports_is_labelled_with_its
   assert rows[1].startswith("| scale 0.2 (a 0.001 M budget) (unfinished) |")
 
 
-def test_a_report_names_the_ppo_settings_its_arms_trained_with_over_the_row(tmp_path):
+def _trained(path, run_spec):
+  """``run_spec``'s config.json in ``path``, and a provenance.json whose segment records the
+  settings it trained with under blx's defaults now, as ``train_run`` writes them."""
+  import json
   import types
   from blx.experiments import runs
+  from blx.training import config as ppo_config
+  runs.write_config(str(path), run_spec, types.SimpleNamespace(desc={}))
+  ppo = dataclasses.asdict(ppo_config.ppo_defaults(run_spec.env, **run_spec.ppo))
+  (path / "provenance.json").write_text(json.dumps({"segments": [
+      {"started": "2026-11-30T00:00:00Z", "from_env_steps": 0.0, "to_env_steps": 1000.0,
+       "device": "cpu", "platform": "cpu", "device_count": 1, "versions": {}, "ppo": ppo}]}))
+
+
+def test_a_report_names_the_ppo_settings_its_arms_trained_with_over_the_row(tmp_path):
   study = ablations.STUDIES["legs_original"]
   # the arms trained with a larger entropy cost (--config); the report is asked with it, so the
   # title and ablation.md name it, and no arm's label repeats it
   spec = ablations.spec(study, "ant", 2, steps=3000, config={"entropy_cost": 0.1})
   (first, first_spec), (second, second_spec) = sweep.expand(spec)[:2]
   for name, run_spec in ((first, first_spec), (second, second_spec)):
-    runs.write_config(str(tmp_path / name), run_spec, types.SimpleNamespace(desc={}))
+    _trained(tmp_path / name, run_spec)
     _write_metrics(tmp_path / name / "metrics.csv", {(0, 1000): 1.0, (1, 1000): 2.0},
                    key="eval/episode_score")
   table = ablations.report("legs_original", study, str(tmp_path), spec)
@@ -622,8 +632,7 @@ def test_a_report_names_the_ppo_settings_its_arms_trained_with_over_the_row(tmp_
   assert rows and all("(trained with entropy_cost=0.1)" in r for r in rows)
   assert "over the row's" not in (tmp_path / "ablation.md").read_text()
   # and an arm trained with the row's setting, reported with --config, says that
-  runs.write_config(str(tmp_path / first), sweep.expand(plain)[0][1],
-                    types.SimpleNamespace(desc={}))
+  _trained(tmp_path / first, sweep.expand(plain)[0][1])
   table = ablations.report("legs_original", study, str(tmp_path), spec)
   rows = [r for r in table.splitlines() if "eval/episode_score" in r]
   assert "(trained with the row's entropy_cost)" in rows[0]
@@ -656,15 +665,23 @@ def test_a_report_names_a_setting_an_arm_took_from_a_default_that_moved_since(tm
     table = ablations.report("legs_original", study, str(tmp_path), spec)
     return [r.split(" | ")[0] for r in table.splitlines() if "eval/episode_score" in r][:2]
 
-  assert "trained with" not in labels()[0]
-  assert "(trained with eval_actions='sampled')" in labels()[1]
-  # blx's default moves to sampled: the older arm is named for its mean action, the other not.
+  # Under blx's defaults before session 61 (the mean action) the recorded arm is named, the
+  # older not.
   row = ppo_config.ppo_defaults
-  monkeypatch.setattr(ppo_config, "ppo_defaults",
-                      lambda env=None, **kw: row(env, **{"eval_actions": "sampled", **kw}))
+  with monkeypatch.context() as before:
+    before.setattr(ppo_config, "ppo_defaults",
+                   lambda env=None, **kw: row(env, **{"eval_actions": "mean", **kw}))
+    older_label, recorded_label = labels()
+  assert "trained with" not in older_label
+  assert "(trained with eval_actions='sampled')" in recorded_label
+  # blx's default samples now: the older arm is named for its mean action, the other not.
   older_label, recorded_label = labels()
   assert "(trained with eval_actions='mean')" in older_label
   assert "trained with" not in recorded_label
+  # A study that does not report the return episodes (MI, H(s)) leaves how they acted out.
+  path, older_spec = str(tmp_path / older), dict(sweep.expand(spec))[older]
+  assert ablations._other_settings(path, older_spec) == " (trained with eval_actions='mean')"
+  assert ablations._other_settings(path, older_spec, returns=False) == ""
 
 
 def test_a_task_study_compares_the_training_reward_where_one_episodes_score_dips(tmp_path):

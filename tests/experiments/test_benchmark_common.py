@@ -4,6 +4,7 @@
 cheetah_step.py, and how fall_analysis.py and skill_spread.py pick a run's seeds and name it."""
 
 import argparse
+import dataclasses
 
 import jax
 import jax.numpy as jnp
@@ -87,6 +88,9 @@ def test_run_labels_name_the_ppo_settings_off_the_envs_row():
   assert common.run_label(spec) == (
       "gcrl on halfcheetah, 2 seeds; PPO max_grad_norm 5 (default None)")
   assert common.run_label(spec, "seed 1").endswith(", seed 1; PPO max_grad_norm 5 (default None)")
+  # an analysis rolls out its own episodes: how the run's return episodes acted is not named
+  mean = dataclasses.replace(spec, ppo={**spec.ppo, "eval_actions": "mean"})
+  assert common.run_label(mean) == common.run_label(spec)
 
 
 def test_a_json_write_that_fails_halfway_leaves_the_last_whole_file(tmp_path):

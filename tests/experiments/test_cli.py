@@ -110,19 +110,18 @@ def test_eval_with_several_keys_reports_the_evaluations_own_noise_and_keeps_eval
   assert any(line.startswith("eval/lgr ") and "per seed ±" in line for line in lines)
 
 
-def test_eval_with_sampled_actions_scores_the_original_protocol_and_keeps_eval_json(trained,
-                                                                                     capsys):
-  # The run evaluates with the mean action (blx's default); --eval-actions sampled scores the
-  # return episodes as Braxlines' PPO does, and leaves eval.json as the run's own evaluation.
-  sampled, told, own = _eval_keeping_eval_json(trained, capsys, "--eval-actions", "sampled")
-  assert "eval_actions='sampled'" in told and sampled["eval_actions"] == "sampled"
+def test_eval_with_the_mean_action_scores_blxs_old_protocol_and_keeps_eval_json(trained, capsys):
+  # The run evaluates with sampled actions (blx's default, Braxlines' PPO's); --eval-actions mean
+  # scores the return episodes with the mean action, and leaves eval.json as the run's own.
+  mean, told, own = _eval_keeping_eval_json(trained, capsys, "--eval-actions", "mean")
+  assert "eval_actions='mean'" in told and mean["eval_actions"] == "mean"
   own = own["per_seed"]
   # the return episodes act otherwise; the paper's evaluator, which samples anyway, is unchanged
-  assert not np.allclose(sampled["per_seed"]["eval/episode_reward"], own["eval/episode_reward"])
+  assert not np.allclose(mean["per_seed"]["eval/episode_reward"], own["eval/episode_reward"])
   for metric in ("eval/mi", "eval/entropy", "eval/lgr"):
-    np.testing.assert_allclose(sampled["per_seed"][metric], own[metric], rtol=1e-5, atol=1e-6)
+    np.testing.assert_allclose(mean["per_seed"][metric], own[metric], rtol=1e-5, atol=1e-6)
   # the run's own way of acting is its ordinary evaluation
-  assert cli.main(["eval", trained, "--eval-actions", "mean", "--json"]) == 0
+  assert cli.main(["eval", trained, "--eval-actions", "sampled", "--json"]) == 0
   assert json.loads(capsys.readouterr().out)["per_seed"] == own
 
 
@@ -448,8 +447,8 @@ def test_a_task_sweeps_table_gives_the_episode_length_beside_the_score(tmp_path)
     (["eval", "anyrun", "--key-seeds", "1,1"], "--key-seeds '1,1': give distinct ints"),
     (["eval", "anyrun", "--key-seeds", "-1"], "--key-seeds '-1': give distinct ints"),
     (["eval", "anyrun", "--metrics-only"], "--metrics-only applies with --key-seeds"),
-    (["eval", "anyrun", "--eval-actions", "greedy"], "--eval-actions 'greedy': give one of mean, "
-                                                     "sampled"),
+    (["eval", "anyrun", "--eval-actions", "greedy"], "--eval-actions 'greedy': give one of "
+                                                     "sampled, mean"),
 ])
 def test_bad_input_is_one_line_and_exit_status_2(argv, message, capsys):
   assert cli.main(argv) == 2
@@ -562,14 +561,26 @@ def test_a_run_goes_on_and_is_evaluated_with_the_settings_it_trained_with_after_
   def killed(row):  # the process dies right after the first evaluation
     raise KeyboardInterrupt
 
+  # The run begins under blx's defaults before session 61, which took the mean action.
+  row = training.ppo_defaults
+  monkeypatch.setattr(training, "ppo_defaults",
+                      lambda env=None, **kw: row(env, **kw).replace(eval_actions="mean"))
   with pytest.raises(KeyboardInterrupt):
     runs.train_run(spec, out, progress=killed)
-  # blx's defaults move after the run began: two settings its config.json leaves to them.
-  row = training.ppo_defaults
-  began = (row("point").eval_actions, row("point").entropy_cost)
-  assert began == ("mean", 1e-3)
-  monkeypatch.setattr(training, "ppo_defaults", lambda env=None, **kw: row(env, **kw).replace(
-      eval_actions="sampled", entropy_cost=0.05))
+  began = ("mean", 1e-3)
+  # Its checkpoint records no eval_actions, as one written before PPOConfig had it (the legs rows'
+  # from before session 57): such a run took the mean action (UNRECORDED_SETTINGS).
+  from blx.training import checkpoint
+  ckpt = os.path.join(out, "checkpoint")
+  recorded = checkpoint.read_meta(ckpt)["config"]
+  assert (recorded["eval_actions"], recorded["entropy_cost"]) == began
+  del recorded["eval_actions"]
+  checkpoint.rewrite(ckpt, meta_update={"config": recorded})
+  # blx's defaults moved after the run began: two settings its config.json leaves to them (today's
+  # eval_actions, and an entropy_cost moved for the test).
+  assert (row("point").eval_actions, row("point").entropy_cost) == ("sampled", 1e-3)
+  monkeypatch.setattr(training, "ppo_defaults",
+                      lambda env=None, **kw: row(env, **kw).replace(entropy_cost=0.05))
   capsys.readouterr()
   run = runs.load_run(out)  # as blx eval and the plots rebuild it
   assert (run.config.eval_actions, run.config.entropy_cost) == began

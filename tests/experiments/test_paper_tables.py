@@ -307,35 +307,31 @@ def test_progress_reads_a_row_under_training_at_its_last_evaluation_every_seed_r
       paper_tables.progress(str(tmp_path)))
 
 
-def test_a_row_is_named_by_the_settings_it_trained_with_where_a_default_moved_since(
-    tmp_path, monkeypatch):
+def test_a_row_is_named_by_the_settings_it_trained_with_but_not_for_its_return_episodes(
+    tmp_path):
   from blx.training import config as ppo_config
   key = "eval/energy_distance"
   older = _run_dir(tmp_path / "older" / "dmin" / "objective=gail", "gail", "halfcheetah",
                    [(1e6, 10.0, {key: [0.4, 0.5, 0.6]})])
   recorded = _run_dir(tmp_path / "recorded" / "dmin" / "objective=gail", "gail", "halfcheetah",
                       [(1e6, 10.0, {key: [0.4, 0.5, 0.6]})])
-  # Both config.json leave eval_actions to the default. The older run records no settings (a
-  # segment from before session 60): it evaluated with the mean action. The other's segment
-  # records every setting it trained with: sampled actions.
+  # Neither config.json sets a PPO setting. The older run records none (a segment from before
+  # session 60): it evaluated with the mean action, blx's default then. The other's segment
+  # records every setting it trained with: the mean action too, and a clip (say a default that
+  # has moved since).
   segment = {"started": "2026-11-30T00:00:00Z", "from_env_steps": 0.0, "to_env_steps": 1e6,
              "device": "cpu", "platform": "cpu", "device_count": 1, "versions": {}}
   (older / "provenance.json").write_text(json.dumps({"segments": [segment]}))
-  sampled = dataclasses.asdict(ppo_config.ppo_defaults("halfcheetah", eval_actions="sampled"))
+  trained = dataclasses.asdict(ppo_config.ppo_defaults("halfcheetah", eval_actions="mean",
+                                                       max_grad_norm=5.0))
   (recorded / "provenance.json").write_text(json.dumps(
-      {"segments": [{**segment, "ppo": sampled}]}))
+      {"segments": [{**segment, "ppo": trained}]}))
   text = paper_tables.progress(str(tmp_path))
-  assert f"{older}: settings" not in text
-  assert (f"{recorded}: settings not the original's: eval_actions sampled (the original's: "
-          "mean).") in text
-  # blx's default moves to sampled: the older run is named for the mean action, the other not.
-  row = ppo_config.ppo_defaults
-  monkeypatch.setattr(ppo_config, "ppo_defaults",
-                      lambda env=None, **kw: row(env, **{"eval_actions": "sampled", **kw}))
-  text = paper_tables.progress(str(tmp_path))
-  assert (f"{older}: settings not the original's: eval_actions mean (the original's: "
-          "sampled).") in text
-  assert f"{recorded}: settings" not in text
+  # The clip is named from the record; the mean action is not: the return episodes' actions do
+  # not touch the tables' metrics (their evaluators sample as the paper's).
+  assert (f"{recorded}: settings not the original's: max_grad_norm 5.0 (the original's: None). "
+          "An option's result") in text
+  assert f"{older}: settings" not in text and "eval_actions" not in text
 
 
 def test_a_row_trained_with_a_setting_not_the_originals_is_named_as_an_option(tmp_path):

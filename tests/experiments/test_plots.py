@@ -209,10 +209,10 @@ def test_a_run_trained_off_its_envs_ppo_row_says_so_in_its_plots_titles(tmp_path
   monkeypatch.setattr(plots, "training_curves",
                       lambda history, path, **kw: titles.append(kw["title"]))
   row = training.ppo_defaults("halfcheetah")
-  # The third run's config.json sets nothing, but it trained with sampled actions, a default that
-  # has moved since (run.config: as load_run rebuilds it): its title names the setting.
+  # The third run's config.json sets nothing, but it trained with the mean action, blx's default
+  # before session 61 (run.config: as load_run rebuilds it): its title names the setting.
   for ppo, config in (({"max_grad_norm": 5, "num_evals": 40}, {}), ({"num_evals": 40}, {}),
-                      ({}, {"eval_actions": "sampled"})):
+                      ({}, {"eval_actions": "mean"})):
     run = SimpleNamespace(directory=str(tmp_path), params=None,
                           objective=objectives.diayn(num_skills=2, obs_indices=(0,)),
                           spec=runs.RunSpec(env="halfcheetah", objective="diayn",
@@ -221,7 +221,7 @@ def test_a_run_trained_off_its_envs_ppo_row_says_so_in_its_plots_titles(tmp_path
     plots.write_all(run, [{"env_steps": 1.0, "eval/mi": [0.1]}])
   assert titles == ["diayn on halfcheetah; PPO max_grad_norm 5 (default None): training curves",
                     "diayn on halfcheetah: training curves",
-                    "diayn on halfcheetah; PPO eval_actions sampled (default mean): training "
+                    "diayn on halfcheetah; PPO eval_actions mean (default sampled): training "
                     "curves"]
 
 

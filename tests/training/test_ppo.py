@@ -298,9 +298,10 @@ def test_the_trainer_runs_the_env_as_given_with_its_episode_and_action_repeat():
 
 
 def test_the_evaluation_takes_the_mean_action_or_samples_as_the_original():
-  # point_goal resets without noise and the task has no latent: with the mean action (blx's
-  # default) the evaluation's episodes are one episode repeated; sampled actions (Braxlines' PPO's
-  # evaluation) give as many episodes as envs, the same ones again for the same key.
+  # point_goal resets without noise and the task has no latent: with the mean action (an option,
+  # blx's default before session 61) the evaluation's episodes are one episode repeated; sampled
+  # actions (blx's default, Braxlines' PPO's evaluation) give as many episodes as envs, the same
+  # ones again for the same key.
   env = envs.episode(envs.unwrap(point_goal()), 8)
   params = None
   totals = {}
@@ -592,6 +593,11 @@ def test_off_row_names_the_settings_a_run_changed_from_its_envs_row():
       f"PPO learning_rate {row.learning_rate / 2} (default {row.learning_rate}), max_grad_norm 5 "
       "(default None)")
   assert off_row("halfcheetah", {}) == {} and off_row_text("halfcheetah", None) == ""
+  # the mean action is named where the return episodes are reported, and left out where not
+  mean = {**ppo, "eval_actions": "mean"}
+  assert off_row("halfcheetah", mean)["eval_actions"] == ("mean", "sampled")
+  assert off_row("halfcheetah", mean, returns=False) == off_row("halfcheetah", ppo)
+  assert off_row_text("halfcheetah", {"eval_actions": "mean"}, returns=False) == ""
   # each body is held to its own row: Ant's reward scaling is HalfCheetah's option, not Ant's
   ant = {"reward_scaling": training.ppo_defaults("ant").reward_scaling}
   assert off_row("ant", ant) == {}
@@ -642,7 +648,7 @@ def test_config_as_trained_takes_the_checkpoints_settings_but_those_the_run_sets
   import dataclasses
   import json
   # A checkpoint's metadata as train writes it (through JSON: tuples come back as lists).
-  then = training.PPOConfig(entropy_cost=0.1, policy_hidden=(64, 64))
+  then = training.PPOConfig(entropy_cost=0.1, policy_hidden=(64, 64), eval_actions="mean")
   recorded = {**dataclasses.asdict(then), "staggered_starts": then.starts_staggered}
   meta = {"config": json.loads(json.dumps(recorded))}
   # Defaults moved since; the run itself sets entropy_cost (its own, even where it differs).
@@ -660,3 +666,10 @@ def test_config_as_trained_takes_the_checkpoints_settings_but_those_the_run_sets
   meta["config"]["staggered_starts"] = True
   config, taken = training.config_as_trained(meta, then)
   assert config.starts_staggered and taken == {"staggered_starts": (True, None)}
+  # A checkpoint from before eval_actions trained with the mean action (UNRECORDED_SETTINGS), also
+  # where the default samples now; one that records no config at all leaves the config as it is.
+  del meta["config"]["eval_actions"]
+  sampled = same.replace(eval_actions="sampled", staggered_starts=True)
+  config, taken = training.config_as_trained(meta, sampled)
+  assert config.eval_actions == "mean" and taken == {"eval_actions": ("mean", "sampled")}
+  assert training.config_as_trained({}, sampled) == (sampled, {})
