@@ -653,9 +653,9 @@ def _other_settings(path: str, run_spec: runs.RunSpec, *, returns: bool = True) 
   its rerun finishes), " (trained with entropy_cost=0.1)" for any other setting (e.g. a report
   drawn without the ``--config`` its arms trained with); else "". What the run trained with is
   every setting its provenance recorded, else its config.json's (``runs.settings_as_trained``):
-  a setting it took from a default that moved since is named too ("eval_actions='mean'"), where
-  ``returns`` (the study reports the return episodes, ``eval/episode_*``: else the settings of
-  those alone, ``ppo_config.RETURN_SETTINGS``, are left out)."""
+  a setting it took from a default that moved since is named too ("eval_actions='mean'"). With
+  ``returns`` False (a study none of whose metrics is a return episode's, ``eval/episode_*``), the
+  settings of the return episodes alone (``ppo_config.RETURN_SETTINGS``) are left out."""
   if not os.path.exists(os.path.join(path, "config.json")):
     return ""
   spec = runs.read_spec(path)

@@ -247,8 +247,9 @@ def ppo_defaults(env_name: str | None = None, **overrides: Any) -> PPOConfig:
 
 
 # PPO settings that set a run's length and bookkeeping, not how it learns: ``off_row`` leaves them
-# out. ``eval_actions`` is not among them: it changes what the run's curves measure, so a run
-# evaluated with the mean action, not as the original, says so wherever its settings are named.
+# out. ``eval_actions`` is not among them: it changes what the return episodes' curves measure,
+# so a run evaluated with the mean action, not as the original, says so wherever those are
+# reported (``RETURN_SETTINGS`` below).
 BOOKKEEPING = ("num_timesteps", "num_evals", "num_eval_envs", "checkpoint_env_state")
 # Settings of the return episodes alone (the evaluation after each chunk: ``eval/episode_*``). The
 # paper's metrics (MI, H(s), LGR, energy distance) have evaluators of their own, so a report of
