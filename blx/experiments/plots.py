@@ -109,20 +109,22 @@ def curve_ylabel(key: str) -> str:
   return YLABELS.get(key, key.rsplit("/", 1)[-1].replace("_", " "))
 
 
-def band_caption(num_seeds: int, keys: Sequence[str] = ()) -> str:
+def band_caption(num_seeds: int, keys: Sequence[str] = (), eval_actions: str | None = None) -> str:
   """What the line and the band of a training curve are, and how the panels of ``keys`` were
-  measured: the trainer's deterministic episodes, the evaluator's sampled ones, or training."""
+  measured: the trainer's evaluation episodes (acting as ``eval_actions``, the run's
+  ``PPOConfig.eval_actions``, says; None: not said), the evaluator's sampled ones, or training."""
   spread = (f"line: mean over {num_seeds} seeds, band: lowest to highest seed" if num_seeds > 1
             else "one seed")
-  # training.RETURN_KEYS come from the trainer's own evaluation episodes (deterministic actions);
-  # the other eval/* panels (MI, H(s), LGR, energy distance, mode shares) from the objective's
-  # evaluator (``--eval-metrics``), whose episodes sample their actions as Braxlines' evaluation.
+  how = {"mean": " (the mean action)", "sampled": " (actions sampled)"}.get(eval_actions, "")
+  # training.RETURN_KEYS come from the trainer's own evaluation episodes; the other eval/* panels
+  # (MI, H(s), LGR, energy distance, mode shares) from the objective's evaluator
+  # (``--eval-metrics``), whose episodes sample their actions as Braxlines' evaluation.
   sampled = [k for k in keys if k.startswith("eval/") and k not in training.RETURN_KEYS]
   if not sampled:
-    return (f"{spread}. eval/*: deterministic evaluation episodes after each chunk; loss/*, "
+    return (f"{spread}. eval/*: the trainer's evaluation episodes after each chunk{how}; loss/*, "
             "disc/*, policy/*, grad_*: means over the chunk's training iterations.")
-  return (f"{spread}. eval/episode_reward, _score, _length: the trainer's deterministic episodes "
-          "after each chunk; the other eval/*: the objective's evaluator after each chunk,\n"
+  return (f"{spread}. eval/episode_reward, _score, _length: the trainer's evaluation episodes "
+          f"after each chunk{how}; the other eval/*: the objective's evaluator after each chunk,\n"
           "actions sampled (as Braxlines' evaluation); loss/*, disc/*, policy/*, grad_*: means "
           "over the chunk's training iterations.")
 
@@ -142,12 +144,15 @@ def _curve(history: list[dict], key: str) -> np.ndarray:
 
 
 def training_curves(history: list[dict], path: str, *, titles: dict[str, str] | None = None,
-                    title: str = "", lgr_goals_from: float | None = None) -> list[str]:
+                    title: str = "", lgr_goals_from: float | None = None,
+                    eval_actions: str | None = None) -> list[str]:
   """A grid of curves (mean over seeds, band = min..max) against env steps, each with its y label
   and a caption saying what line and band are; returns the keys. ``titles`` replaces a panel's
   title (default: its key); ``title`` heads the figure. ``lgr_goals_from``: the env steps after
   which the LGR was scored on the paper's goals and before which on blx's old ones (a run resumed
-  across session 41, ``runs.lgr_goals_switch``), marked in the LGR panels."""
+  across session 41, ``runs.lgr_goals_switch``), marked in the LGR panels. ``eval_actions``: how
+  the trainer's evaluation episodes acted (the run's ``PPOConfig.eval_actions``), for the
+  caption."""
   plt = _pyplot()
   logged = logged_keys(history)
   keys = list(dict.fromkeys(k for p in CURVE_PATTERNS for k in logged if re.match(p, k)))
@@ -189,7 +194,7 @@ def training_curves(history: list[dict], path: str, *, titles: dict[str, str] | 
   seeds = _curve(history, keys[0]).shape[1] if history and keys else 1
   if title:
     fig.suptitle(fit_title(title, fig), fontsize=10)
-  caption = band_caption(seeds, keys)
+  caption = band_caption(seeds, keys, eval_actions)
   fig.text(0.5, 0.005, caption, ha="center", va="bottom", fontsize=7, color="0.3")
   # room below the panels for the caption's lines (about 0.12 inch each)
   fig.tight_layout(rect=(0, (0.1 + 0.12 * (1 + caption.count("\n"))) / (3.0 * rows), 1, 1))
@@ -378,7 +383,8 @@ def write_all(run, history: list[dict], *, seed_index: int = 0, key_seed: int = 
   if history:
     path = os.path.join(out_dir, "training_curves.png")
     training_curves(history, path, titles=curve_titles(logged_keys(history), run.objective),
-                    title=f"{trained}: training curves", lgr_goals_from=lgr_goals_from)
+                    title=f"{trained}: training curves", lgr_goals_from=lgr_goals_from,
+                    eval_actions=run.config.eval_actions)
     written.append(path)
   if run.params is None:
     return written

@@ -27,12 +27,16 @@ def test_curve_panels_say_what_they_measure_and_what_the_band_is(tmp_path):
   assert plots.curve_ylabel("train/some_new_thing") == "some new thing"  # unknown keys stay legible
   assert plots.band_caption(10).startswith("line: mean over 10 seeds, band: lowest to highest seed")
   assert plots.band_caption(1).startswith("one seed")
-  # the paper's metrics come from the evaluator's sampled episodes, the returns from the trainer's
-  # deterministic ones: the caption tells them apart where both are drawn
-  both = plots.band_caption(10, ["eval/episode_reward", "eval/energy_distance", "loss/disc"])
-  assert "trainer's deterministic episodes" in both and "actions sampled" in both
-  returns_only = plots.band_caption(10, ["eval/episode_reward", "eval/episode_length"])
-  assert "deterministic" in returns_only and "sampled" not in returns_only
+  # the paper's metrics come from the evaluator's sampled episodes, the returns from the trainer's,
+  # which act as the run's eval_actions says: the caption tells them apart where both are drawn
+  both = plots.band_caption(10, ["eval/episode_reward", "eval/energy_distance", "loss/disc"],
+                            "mean")
+  assert "trainer's evaluation episodes after each chunk (the mean action)" in both
+  assert "evaluator after each chunk,\nactions sampled" in both
+  returns_only = plots.band_caption(10, ["eval/episode_reward", "eval/episode_length"], "sampled")
+  assert "evaluation episodes after each chunk (actions sampled)" in returns_only
+  assert "mean action" not in plots.band_caption(10, ["eval/episode_reward"], "sampled")
+  assert "(" not in plots.band_caption(10, ["eval/episode_reward"]).split(";")[0]  # not said
   assert plots.curve_ylabel("eval/episode_length") == "env steps per episode"
   history = [{"env_steps": 1e6 * (i + 1), "eval/mi": [0.1 * i, 0.2 * i], "loss/policy": [1.0, 2.0],
               "eval/episode_length": [1000.0, 240.0], "eval/episode_score": [-1e3, -8e2],
@@ -205,9 +209,9 @@ def test_a_run_trained_off_its_envs_ppo_row_says_so_in_its_plots_titles(tmp_path
   from types import SimpleNamespace
 
   from blx.experiments import runs
-  titles = []
-  monkeypatch.setattr(plots, "training_curves",
-                      lambda history, path, **kw: titles.append(kw["title"]))
+  titles, actions = [], []
+  monkeypatch.setattr(plots, "training_curves", lambda history, path, **kw: (
+      titles.append(kw["title"]), actions.append(kw["eval_actions"])))
   row = training.ppo_defaults("halfcheetah")
   # The third run's config.json sets nothing, but it trained with the mean action, blx's default
   # before session 61 (run.config: as load_run rebuilds it): its title names the setting.
@@ -223,6 +227,7 @@ def test_a_run_trained_off_its_envs_ppo_row_says_so_in_its_plots_titles(tmp_path
                     "diayn on halfcheetah: training curves",
                     "diayn on halfcheetah; PPO eval_actions mean (default sampled): training "
                     "curves"]
+  assert actions == ["sampled", "sampled", "mean"]  # the caption says how each run's episodes act
 
 
 def test_fit_title_wraps_each_line_to_the_figures_width_and_keeps_every_word():
