@@ -7,7 +7,7 @@ together as ``training.train`` runs them.
 
 The run is the one ``time_to_quality.py`` builds (the paper's objective settings and the env's PPO
 row with ``num_envs`` set, ``--config`` over it). Per chunk ``training.train`` runs the chunk of
-PPO iterations, then ``Trainer.evaluate`` (the deterministic episodes behind
+PPO iterations, then ``Trainer.evaluate`` (the trainer's evaluation episodes behind
 ``eval/episode_reward``) and, with an evaluator, the paper's metric (``blx.metrics.evaluator_for``),
 their episodes stepped in one rollout (``training.evaluate_together``; before session 14 one after
 the other). Each part is compiled, then called ``--repeats`` times with ``block_until_ready`` after
