@@ -123,8 +123,9 @@ class PPOConfig:
         raise ValueError(f"PPOConfig.{name} must be True or False, got {getattr(self, name)!r}")
     if self.eval_actions not in EVAL_ACTIONS:
       valid = ", ".join(map(repr, EVAL_ACTIONS))
-      raise ValueError(f"PPOConfig.eval_actions must be one of {valid} (the mean action, blx's "
-                       f"default, or sampled actions, the original's), got {self.eval_actions!r}")
+      raise ValueError(f"PPOConfig.eval_actions must be one of {valid} (sampled actions, the "
+                       f"original's and blx's default, or the mean action), got "
+                       f"{self.eval_actions!r}")
     if not (self.staggered_starts is None or isinstance(self.staggered_starts, bool)):
       raise ValueError(f"PPOConfig.staggered_starts must be True, False or None (chosen by "
                        f"num_envs), got {self.staggered_starts!r}")

@@ -330,6 +330,14 @@ def test_the_evaluation_takes_the_mean_action_or_samples_as_the_original():
   assert not np.allclose(first, mean)
 
 
+def test_the_evaluation_samples_by_default_and_a_bad_setting_names_the_valid_ones():
+  assert training.PPOConfig().eval_actions == "sampled"  # the original's, blx's default
+  with pytest.raises(ValueError, match=r"eval_actions must be one of 'sampled', 'mean' \(sampled "
+                                       r"actions, the original's and blx's default, or the mean "
+                                       r"action\), got 'greedy'"):
+    training.PPOConfig(eval_actions="greedy")
+
+
 def test_episode_settings_are_the_envs_and_bad_envs_are_named():
   with pytest.raises(ValueError, match="episode_length belong to the env, not to PPO"):
     training.ppo_defaults("point", episode_length=20)
