@@ -3,6 +3,7 @@
     python benchmarks/device_scaling.py [--env pro_ant_run] [--env-param num_legs=4 ...]
                                         [--seeds 10] [--devices 1,2] [--chunks 2]
                                         [--iterations 20] [--num-envs N]
+                                        [--piece-iterations 5] [--repeats 1]
 
 ``training.train`` shards the env axis of every seed over all local devices (seeds stay vmapped
 on each). For each device count k this trains the same run (``--env``'s PPO row, the task
@@ -13,6 +14,16 @@ followed by PPO's evaluation, in a process of its own that sees the first k devi
 per second per seed over the chunks (the loop's own figure: compilation left out, evaluations
 in), and the speed-up over the first device count. The default is ``legs_original``'s four-legged
 arm on the ant's row, at the original's physics step.
+
+Where the speed-up goes: after training, the same process times the two programs a chunk of
+``train`` runs, each alone on the trained state laid out as ``train`` keeps it
+(``training.place_state``), compiled, then called ``--repeats`` times with ``block_until_ready``
+(the median): a chunk of ``--piece-iterations`` PPO iterations (given per iteration) and PPO's
+evaluation after a chunk (``Trainer.evaluate``: its episodes step one after another). The rest of
+``train``'s chunk (its wall time per chunk less ``--iterations`` kernel iterations and one
+evaluation) is the host's work that the loop does not hide behind the device (with
+``--repeats`` 1, also the calls' noise). A part whose time does not fall with more devices holds
+the whole run's speed-up under the device count.
 """
 
 from __future__ import annotations
@@ -66,11 +77,44 @@ def measure(args, devices: int) -> dict:
   steps = config.env_steps_per_iteration * getattr(env, "action_repeat", 1)
   config = config.replace(num_timesteps=args.chunks * args.iterations * steps,
                           num_evals=args.chunks)
-  result = training.train(env, task(), config, seeds=tuple(range(args.seeds)), progress=False)
+  objective = task()
+  result = training.train(env, objective, config, seeds=tuple(range(args.seeds)), progress=False)
   last = result.metrics[-1]
-  return dict(devices=devices, device=jax.local_devices()[0].device_kind,
-              env_steps=last["env_steps"], compile_s=last["compile_seconds"],
-              steps_per_s=last["steps_per_second"])
+  row = dict(devices=devices, device=jax.local_devices()[0].device_kind,
+             env_steps=last["env_steps"], compile_s=last["compile_seconds"],
+             steps_per_s=last["steps_per_second"])
+  trainer = training.make_trainer(env, objective, config)
+  pieces = time_pieces(trainer, training.place_state(result.state, config.num_envs),
+                       args.piece_iterations, args.repeats)
+  chunk_s = last["env_steps"] / last["steps_per_second"] / args.chunks  # train's, per chunk
+  rest_s = chunk_s - args.iterations * pieces["iteration_s"] - pieces["evaluation_s"]
+  return {**row, **pieces, "chunk_s": chunk_s, "rest_s": rest_s}
+
+
+def time_pieces(trainer, state, iterations: int, repeats: int) -> dict:
+  """Seconds per PPO iteration (a chunk of ``iterations``, alone) and per PPO evaluation (alone)
+  on ``state`` (``[seeds, ...]``, laid out as ``train`` keeps it), each the median of ``repeats``
+  calls after a first that compiles."""
+  import jax
+  import numpy as np
+
+  from blx import training
+
+  chunk = jax.jit(jax.vmap(lambda s: trainer.chunk(s, iterations)[0]))
+  evaluate = jax.jit(jax.vmap(lambda s, k: trainer.evaluate(training.policy_params(s), k)))
+  keys = lambda i: jax.random.split(jax.random.PRNGKey(i), len(state.env_steps))  # noqa: E731
+  _, chunk_times = common.time_calls(chunk, lambda i: (state,), repeats)
+  _, eval_times = common.time_calls(evaluate, lambda i: (state, keys(i)), repeats)
+  return dict(iteration_s=float(np.median(chunk_times)) / iterations,
+              evaluation_s=float(np.median(eval_times)))
+
+
+def speedups(row: dict, first: dict) -> dict:
+  """``row`` with its speed-ups over ``first`` (the first device count's row): the run's (its env
+  steps per second) and each piece's (its seconds)."""
+  return {**row, "speedup": row["steps_per_s"] / first["steps_per_s"],
+          "iteration_speedup": first["iteration_s"] / row["iteration_s"],
+          "evaluation_speedup": first["evaluation_s"] / row["evaluation_s"]}
 
 
 def main():
@@ -83,14 +127,18 @@ def main():
   parser.add_argument("--chunks", type=int, default=2)
   parser.add_argument("--iterations", type=int, default=20, help="PPO iterations per chunk")
   parser.add_argument("--num-envs", type=int, default=None, help="envs per seed (the row's)")
+  parser.add_argument("--piece-iterations", type=int, default=5,
+                      help="PPO iterations in the chunk timed alone")
+  parser.add_argument("--repeats", type=int, default=1,
+                      help="timed calls of each piece (their median)")
   parser.add_argument(CHILD, type=int, default=None, help=argparse.SUPPRESS)
   args = parser.parse_args()
   if args.env_param is None:
     args.env_param = ["num_legs=4"] if args.env == "pro_ant_run" else []
   env_params(args.env_param)  # bad pairs fail here, before any process starts
-  for name in ("seeds", "chunks", "iterations"):
+  for name in ("seeds", "chunks", "iterations", "piece_iterations", "repeats"):
     if getattr(args, name) < 1:
-      parser.error(f"--{name} must be at least 1, got {getattr(args, name)}")
+      parser.error(f"--{name.replace('_', '-')} must be at least 1, got {getattr(args, name)}")
   if args.child_devices is not None:
     print(json.dumps(measure(args, args.child_devices)), flush=True)
     return
@@ -109,15 +157,19 @@ def main():
     if child.returncode:
       sys.exit(f"device_scaling: the run on {k} devices failed:\n{child.stderr[-3000:]}")
     row = json.loads(child.stdout.strip().splitlines()[-1])
-    row["speedup"] = row["steps_per_s"] / rows[0]["steps_per_s"] if rows else 1.0
+    row = speedups(row, rows[0] if rows else row)
     rows.append(row)
     print(json.dumps(row), flush=True)
   common.print_table(
       f"; {' '.join([args.env, *args.env_param])}, {args.seeds} seeds vmapped, "
-      f"{args.chunks} chunks of {args.iterations} iterations", rows,
+      f"{args.chunks} chunks of {args.iterations} iterations; the pieces alone: median of "
+      f"{args.repeats} calls, the kernel over {args.piece_iterations} iterations", rows,
       [("devices", "devices", ""), ("device", "device", ""), ("env steps per seed", "env_steps",
        ",.0f"), ("compile s", "compile_s", ".1f"), ("env steps/s per seed", "steps_per_s", ",.0f"),
-       ("speed-up", "speedup", ".2f")])
+       ("speed-up", "speedup", ".2f"), ("train's chunk s", "chunk_s", ".2f"),
+       ("iteration s (alone)", "iteration_s", ".3f"), ("its speed-up", "iteration_speedup", ".2f"),
+       ("evaluation s (alone)", "evaluation_s", ".2f"),
+       ("its speed-up", "evaluation_speedup", ".2f"), ("rest of the chunk s", "rest_s", ".2f")])
 
 
 if __name__ == "__main__":
