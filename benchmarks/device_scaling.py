@@ -100,7 +100,7 @@ def time_pieces(trainer, state, iterations: int, repeats: int) -> dict:
 
   from blx import training
 
-  chunk = jax.jit(jax.vmap(lambda s: trainer.chunk(s, iterations)[0]))
+  chunk = jax.jit(jax.vmap(lambda s: trainer.chunk(s, iterations)))  # state and metrics, as train
   evaluate = jax.jit(jax.vmap(lambda s, k: trainer.evaluate(training.policy_params(s), k)))
   keys = lambda i: jax.random.split(jax.random.PRNGKey(i), len(state.env_steps))  # noqa: E731
   _, chunk_times = common.time_calls(chunk, lambda i: (state,), repeats)
