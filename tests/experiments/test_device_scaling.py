@@ -56,7 +56,7 @@ def test_the_pieces_timed_are_a_chunk_of_the_asked_iterations_and_ppos_evaluatio
   spy = trainer._replace(chunk=chunk, evaluate=evaluate)
   pieces = device_scaling.time_pieces(spy, state, iterations=3, repeats=2)
   assert lengths == [3]            # traced once: the chunk of the asked length
-  assert eval_keys == [(2,)]       # vmapped over the state's 3 seeds: one key each
+  assert eval_keys == [(2,)]       # traced once under vmap: one key per seed of the state's 3
   assert set(pieces) == {"iteration_s", "evaluation_s"}
   assert all(v > 0 for v in pieces.values())
 
