@@ -164,8 +164,18 @@ def test_an_unfinished_run_is_evaluated_where_it_stands_and_its_sweep_trains_it_
   assert json.loads(captured.out)["env_steps"] == 8 * per_iteration
   assert "is unfinished (1 of 2 chunks and 3 iterations of the next)" in captured.err
   assert "eval.json" not in os.listdir(point)
+  # evaluated with other keys or another way of acting, it is still named unfinished
   assert cli.main(["eval", point, "--key-seeds", "0,1", "--json"]) == 0
-  assert json.loads(capsys.readouterr().out)["env_steps"] == 8 * per_iteration
+  captured = capsys.readouterr()
+  assert json.loads(captured.out)["env_steps"] == 8 * per_iteration
+  assert "is unfinished (1 of 2 chunks and 3 iterations of the next)" in captured.err
+  own = runs.load_run(point).config.eval_actions
+  other = {"mean": "sampled", "sampled": "mean"}[own]
+  assert cli.main(["eval", point, "--eval-actions", other, "--json"]) == 0
+  captured = capsys.readouterr()
+  assert json.loads(captured.out)["env_steps"] == 8 * per_iteration
+  assert f"eval_actions={other!r}" in captured.err
+  assert "is unfinished (1 of 2 chunks and 3 iterations of the next)" in captured.err
   assert cli.main(["eval", point]) == 0
   assert "seeds [0], trained 1,280 env steps per seed" in capsys.readouterr().out
   run = runs.load_run(point)
