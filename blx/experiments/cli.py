@@ -238,26 +238,26 @@ def cmd_eval(args) -> int:
     run = run._replace(config=run.config.replace(eval_actions=actions))
   # an unfinished run's parameters are its last checkpoint's, which may stand within a chunk,
   # past the last evaluation in its metrics.csv: every way of evaluating it says so
-  standing = ("" if run.finished else f"; {args.dir} is unfinished "
+  standing = ("" if run.finished else f"{args.dir} is unfinished "
               f"({training.checkpoint_progress(run.meta)}): evaluated as it stands")
+  also = f"; {standing}" if standing else ""
   if key_seeds is None and not other and run.finished:
     result = runs.write_eval(run)
   elif key_seeds is None and not other:
     result = runs.evaluation(run)
-    print(f"[blx] {args.dir} is unfinished ({training.checkpoint_progress(run.meta)}): evaluated "
-          "as it stands; eval.json, the final evaluation, is written when its training ends",
+    print(f"[blx] {standing}; eval.json, the final evaluation, is written when its training ends",
           file=sys.stderr)
   elif key_seeds is None:
     result = {**runs.evaluation(run), "eval_actions": actions}
     print(f"[blx] evaluated with eval_actions={actions!r}; eval.json (the run's own, "
-          f"{own!r}) is left as it was{standing}", file=sys.stderr)
+          f"{own!r}) is left as it was{also}", file=sys.stderr)
   else:
     result = {**across_keys(key_seeds, runs.evaluate_run_keys(run, key_seeds,
                                                               metrics_only=args.metrics_only)),
               "env_steps": run.env_steps}
     print(f"[blx] evaluated with evaluation keys {key_seeds}"
           + (f" and eval_actions={actions!r}" if other else "")
-          + f"; eval.json (key 0) is left as it was{standing}", file=sys.stderr)
+          + f"; eval.json (key 0) is left as it was{also}", file=sys.stderr)
   # how far the evaluated parameters had trained: an unfinished run's last checkpoint's
   trained = "" if run.env_steps is None else f", trained {run.env_steps:,.0f} env steps per seed"
   if args.json:
