@@ -81,11 +81,20 @@ class _Progress:
 
   def __call__(self, row: dict) -> None:
     import numpy as np
-    frac = row["env_steps"] / max(row["total_steps"], 1)
-    bar = "#" * int(24 * frac) + "." * (24 - int(24 * frac))
     evals = "  ".join(f"{k.split('/', 1)[1]} {np.mean(row[k]):.3g}" for k in self.KEYS if k in row)
-    line = (f"[{bar}] {row['env_steps']:,.0f}/{row['total_steps']:,.0f} steps  "
-            f"{row['steps_per_second']:,.0f}/s  ETA {row['eta_seconds']:.0f}s  {evals}")
+    self._write(row["env_steps"], row["total_steps"], row["steps_per_second"],
+                row["eta_seconds"], evals)
+
+  def segment(self, done) -> None:
+    """A segment within a chunk (``BLX_CHECKPOINT_SEGMENTS``): where the run stands, whether it
+    was checkpointed; the metrics come with the chunk's evaluation."""
+    self._write(done.env_steps, done.total_steps, done.steps_per_second, done.eta_seconds,
+                f"({done.where()})")
+
+  def _write(self, steps: float, total: float, rate: float, eta: float, tail: str) -> None:
+    frac = steps / max(total, 1)
+    bar = "#" * int(24 * frac) + "." * (24 - int(24 * frac))
+    line = f"[{bar}] {steps:,.0f}/{total:,.0f} steps  {rate:,.0f}/s  ETA {eta:.0f}s  {tail}"
     end = "\n" if (not self.tty or frac >= 1) else ""
     self.stream.write(("\r\x1b[2K" if self.tty else "") + line + end)
     self.stream.flush()

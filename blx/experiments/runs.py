@@ -526,9 +526,23 @@ def train_run(spec: RunSpec, directory: str, *, resume: bool = False, progress=T
     if show:
       show(row)
 
+  # A progress that reports rows can show segments too: True, print_segment's line; an object,
+  # its `segment` method where it has one (the command line's progress bar).
+  show_segment = training.print_segment if progress is True else getattr(show, "segment", None)
+
+  def segment_done(done: training.SegmentDone) -> None:
+    # provenance.json names the steps the last checkpoint holds, also for a process killed
+    # without a word (no exception, so no _to_last_checkpoint) before the chunk's evaluation
+    if done.checkpoint_dir:
+      segments[-1] = dataclasses.replace(segments[-1], to_env_steps=done.env_steps)
+      _write_provenance(directory, segments)
+    if show_segment:
+      show_segment(done)
+
   try:
     result = training.train(env, objective, config, seeds=spec.seeds, progress=report,
-                            checkpoint_dir=checkpoint_dir, resume=resume, evaluate=evaluator)
+                            checkpoint_dir=checkpoint_dir, resume=resume, evaluate=evaluator,
+                            on_segment=segment_done)
   except BaseException:  # stopped (Ctrl-C, a device call's limit) or failed: the steps it kept
     _to_last_checkpoint(directory, checkpoint_dir, segments)
     raise

@@ -63,6 +63,34 @@ def print_progress(row: dict) -> None:
         file=sys.stderr, flush=True)
 
 
+class SegmentDone(NamedTuple):
+  """Where a run stands after a segment that ends within its chunk (``train``'s
+  ``checkpoint_segments``): no evaluation and no metrics row, but a checkpoint where the run has a
+  ``checkpoint_dir``. ``train(on_segment=...)`` receives one after each such segment."""
+  chunk: int                  # the chunk the segment is in, counted from 1
+  iterations: int             # the chunk's iterations done
+  iterations_per_chunk: int
+  env_steps: float            # per seed
+  total_steps: float
+  steps_per_second: float     # since this process began training, compilation left out
+  eta_seconds: float
+  checkpoint_dir: str | None  # where the state was checkpointed; None: nowhere
+
+  def where(self) -> str:
+    """"46 of 92 iterations of chunk 3; checkpointed" (or "not checkpointed")."""
+    saved = "checkpointed" if self.checkpoint_dir else "not checkpointed"
+    return (f"{self.iterations} of {self.iterations_per_chunk} iterations of chunk {self.chunk}; "
+            f"{saved}")
+
+
+def print_segment(done: SegmentDone) -> None:
+  """The line ``train(progress=True)`` prints after a segment within a chunk (to stderr), as its
+  line after an evaluation, but for the metrics, which come at the chunk's end."""
+  print(f"[blx] steps {done.env_steps:,.0f}/{done.total_steps:,.0f}  "
+        f"{done.steps_per_second:,.0f} steps/s  ETA {done.eta_seconds:.0f}s  ({done.where()})",
+        file=sys.stderr, flush=True)
+
+
 def evaluate_together(trainer: Trainer, evaluate: Callable | None
                       ) -> Callable[[PolicyParams, jax.Array, jax.Array], dict]:
   """``(params, key, evaluator_key) -> metrics``: PPO's evaluation (``trainer.evaluate``) and, if
@@ -93,7 +121,8 @@ def train(env: Any, objective: Objective, config: PPOConfig, *, seeds: Sequence[
           progress: bool | Callable[[dict], None] = True, checkpoint_dir: str | None = None,
           resume: bool = False, evaluate: Callable | None = None,
           parallel_compile: bool | None = None,
-          checkpoint_segments: int | None = None) -> TrainResult:
+          checkpoint_segments: int | None = None,
+          on_segment: Callable[[SegmentDone], None] | None = None) -> TrainResult:
   """Trains ``objective`` on ``env`` with PPO for every seed in one vmapped program.
 
   Args:
@@ -118,6 +147,9 @@ def train(env: Any, objective: Objective, config: PPOConfig, *, seeds: Sequence[
       iterations, and so the run, are the same (tested bit for bit on CPU). None (the default)
       reads ``$BLX_CHECKPOINT_SEGMENTS``, else 1. At most the chunk's iterations; a resumed run
       may use another number than the one it stopped with.
+    on_segment: receives a ``SegmentDone`` after each segment that ends within its chunk (after
+      its checkpoint). None (the default) prints ``print_segment``'s line where ``progress`` is
+      True, and else nothing.
 
   Raises:
     NonFiniteError: an observation, a reward, a loss, a gradient or a parameter became
@@ -137,6 +169,8 @@ def train(env: Any, objective: Objective, config: PPOConfig, *, seeds: Sequence[
   eval_fn = jax.jit(jax.vmap(lambda state, key, evaluator_key: evaluate_all(
       policy_params(state), key, evaluator_key)))
   report = print_progress if progress is True else (progress or None)
+  if on_segment is None and progress is True:
+    on_segment = print_segment
 
   start_chunk, history, time_before = 0, [], 0.0
   done_in_chunk, partial_metrics = 0, []   # a resume mid-chunk: its segments run so far
@@ -200,6 +234,12 @@ def train(env: Any, objective: Objective, config: PPOConfig, *, seeds: Sequence[
                                       fold(eval_keys, 1_000_003 + chunk)))
     return state, metrics, evals
 
+  def pace(state):
+    """The env steps ``state`` has trained, the seconds since ``t0``, and the env steps a second
+    since ``t0``, compilation left out."""
+    env_steps, elapsed = _env_steps(state), time.time() - t0
+    return env_steps, elapsed, (env_steps - steps0) / max(elapsed - compile_seconds, 1e-9)
+
   # Segments are dispatched from a second thread, so that the host checks, checkpoints and reports
   # segment k while the device runs segment k + 1 (JAX's asynchronous dispatch alone did not
   # overlap them on a GPU: each report came one chunk late, benchmarks/RESULTS.md session 13).
@@ -217,16 +257,18 @@ def train(env: Any, objective: Objective, config: PPOConfig, *, seeds: Sequence[
       partial_metrics.append({k: np.asarray(v) for k, v in metrics.items()
                               if not k.startswith("nonfinite/")})
       if evals is None:   # mid-chunk: a checkpoint, no row
+        env_steps, elapsed, rate = pace(state)
         if checkpoint_dir:
-          partial = {"iterations": first + length, "time": time_before + time.time() - t0,
+          partial = {"iterations": first + length, "time": time_before + elapsed,
                      "metrics": _metrics_to_json(_join(partial_metrics))}
           _save(checkpoint_dir, state, config, {**meta_base, "chunk": chunk, "history": history,
                                                 "partial": partial})
+        if on_segment:
+          on_segment(SegmentDone(chunk + 1, first + length, per_chunk, env_steps, float(total),
+                                 rate, (total - env_steps) / max(rate, 1e-9), checkpoint_dir))
         continue
       evals = jax.device_get(evals)
-      env_steps = _env_steps(state)
-      elapsed = time.time() - t0
-      rate = (env_steps - steps0) / max(elapsed - compile_seconds, 1e-9)
+      env_steps, elapsed, rate = pace(state)
       row = {"env_steps": env_steps, "time": time_before + elapsed, "steps_per_second": rate,
              "total_steps": float(total), "eta_seconds": (total - env_steps) / max(rate, 1e-9),
              "compile_seconds": compile_seconds}

@@ -6,6 +6,7 @@ from __future__ import annotations
 import csv
 import dataclasses
 import inspect
+import io
 import json
 import os
 import re
@@ -133,11 +134,15 @@ def test_an_unfinished_run_is_evaluated_where_it_stands_and_its_sweep_trains_it_
   from blx.experiments import runs
   from blx.training import checkpoint
   monkeypatch.setenv("BLX_CHECKPOINT_SEGMENTS", "2")
-  saves, save = [], checkpoint.save
+  saves, save, kept = [], checkpoint.save, []
 
   def save_then_stop(directory, tree, meta, **kwargs):
     save(directory, tree, meta, **kwargs)
     saves.append(meta["chunk"])
+    # what provenance.json said when the chunk's end was saved: a process killed there, without
+    # a word, leaves it so
+    if len(saves) == 2:
+      kept.extend(s.to_env_steps for s in runs.read_provenance(os.path.dirname(directory)))
     if len(saves) == 3:
       raise KeyboardInterrupt
 
@@ -146,11 +151,20 @@ def test_an_unfinished_run_is_evaluated_where_it_stands_and_its_sweep_trains_it_
           "config": config, "env_params": {"episode_length": 20}}
   out = str(tmp_path / "sweep")
   monkeypatch.setattr(checkpoint, "save", save_then_stop)
+  bar = cli._Progress(io.StringIO())
   with pytest.raises(KeyboardInterrupt):
-    sweep.run_sweep(spec, out, progress=False)
+    sweep.run_sweep(spec, out, progress=bar)
   monkeypatch.setattr(checkpoint, "save", save)
   [point] = [os.path.join(out, d) for d in os.listdir(out) if os.path.isdir(os.path.join(out, d))]
   per_iteration = 1600 / 10
+  # the progress bar shows the first chunk's first segment, checkpointed, then the chunk's end
+  shown = bar.stream.getvalue().splitlines()
+  assert len(shown) == 2
+  assert shown[0].startswith("[") and " 480/1,600 steps " in shown[0]
+  assert shown[0].endswith("(3 of 5 iterations of chunk 1; checkpointed)")
+  assert " 800/1,600 steps " in shown[1]
+  # provenance.json followed the segment's checkpoint before the chunk ended
+  assert kept == [3 * per_iteration]
   rows = list(csv.DictReader(open(os.path.join(point, "metrics.csv"))))
   assert [float(r["env_steps"]) for r in rows] == [5 * per_iteration]
   # provenance.json counts the steps the process kept: to its last checkpoint, not evaluation

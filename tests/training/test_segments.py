@@ -39,8 +39,21 @@ def test_a_chunk_in_segments_is_the_same_run_and_resumes_from_within_a_chunk(tmp
   assert training.make_trainer(env, reach_latent(), CONFIG).iterations_per_chunk == 5
   whole = training.train(env, reach_latent(), CONFIG, progress=False)
   # a segment of one iteration, checkpointed after each: the same iterations, the same rows
+  dones = []
   _same_run(whole, training.train(env, reach_latent(), CONFIG, progress=False,
-                                  checkpoint_dir=str(tmp_path / "ones"), checkpoint_segments=5))
+                                  checkpoint_dir=str(tmp_path / "ones"), checkpoint_segments=5,
+                                  on_segment=dones.append))
+  # and each segment within a chunk (not a chunk's last, which its evaluation reports) is handed
+  # on where it ends; without progress=True nothing is printed
+  per_iteration = CONFIG.env_steps_per_iteration
+  assert [(d.chunk, d.iterations, d.iterations_per_chunk) for d in dones] == [
+      (c, i, 5) for c in (1, 2) for i in (1, 2, 3, 4)]
+  assert [d.env_steps for d in dones] == [
+      ((c - 1) * 5 + i) * per_iteration for c in (1, 2) for i in (1, 2, 3, 4)]
+  assert {(d.total_steps, d.checkpoint_dir) for d in dones} == {
+      (10 * per_iteration, str(tmp_path / "ones"))}
+  assert all(d.steps_per_second > 0 and d.eta_seconds > 0 for d in dones)
+  assert "[blx] steps" not in capsys.readouterr().err
 
   # Two segments (the chunk's 5 iterations cut into 3 + 2): stopped, as a device call's time
   # limit stops it, after the checkpoint of the second chunk's first segment.
@@ -75,9 +88,16 @@ def test_a_chunk_in_segments_is_the_same_run_and_resumes_from_within_a_chunk(tmp
   # all five of the chunk's iterations, is the same.
   kept = str(tmp_path / "kept")
   shutil.copytree(directory, kept)
-  resumed = training.train(env, reach_latent(), CONFIG, progress=False, checkpoint_dir=directory,
+  resumed = training.train(env, reach_latent(), CONFIG, progress=True, checkpoint_dir=directory,
                            resume=True, checkpoint_segments=5)
   _same_run(whole, resumed)
+  # progress=True prints a line for the segment within the chunk (the fourth iteration), then
+  # the chunk's line with its evaluation
+  lines = [line for line in capsys.readouterr().err.splitlines() if line.startswith("[blx] steps")]
+  assert len(lines) == 2
+  assert lines[0].startswith(f"[blx] steps {9 * per_iteration:,}/{10 * per_iteration:,}  ")
+  assert lines[0].endswith("(4 of 5 iterations of chunk 2; checkpointed)")
+  assert lines[1].startswith(f"[blx] steps {10 * per_iteration:,}/{10 * per_iteration:,}  ")
   assert "partial" not in checkpoint.read_meta(directory)
   assert training.checkpoint_finished(checkpoint.read_meta(directory))
   assert resumed.metrics[1]["time"] > meta["partial"]["time"]
