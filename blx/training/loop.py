@@ -58,8 +58,13 @@ def print_progress(row: dict) -> None:
   """The line ``train(progress=True)`` prints after each evaluation (to stderr)."""
   evals = ", ".join(f"{k.split('/', 1)[1]} {np.mean(v):.3g}" for k, v in row.items()
                     if k in _PROGRESS_KEYS)
-  print(f"[blx] steps {row['env_steps']:,.0f}/{row['total_steps']:,.0f}  "
-        f"{row['steps_per_second']:,.0f} steps/s  ETA {row['eta_seconds']:.0f}s  {evals}",
+  _print_steps(row["env_steps"], row["total_steps"], row["steps_per_second"],
+               row["eta_seconds"], evals)
+
+
+def _print_steps(steps: float, total: float, rate: float, eta: float, tail: str) -> None:
+  """``train``'s progress line (to stderr): where the run stands, its pace, then ``tail``."""
+  print(f"[blx] steps {steps:,.0f}/{total:,.0f}  {rate:,.0f} steps/s  ETA {eta:.0f}s  {tail}",
         file=sys.stderr, flush=True)
 
 
@@ -86,9 +91,8 @@ class SegmentDone(NamedTuple):
 def print_segment(done: SegmentDone) -> None:
   """The line ``train(progress=True)`` prints after a segment within a chunk (to stderr), as its
   line after an evaluation, but for the metrics, which come at the chunk's end."""
-  print(f"[blx] steps {done.env_steps:,.0f}/{done.total_steps:,.0f}  "
-        f"{done.steps_per_second:,.0f} steps/s  ETA {done.eta_seconds:.0f}s  ({done.where()})",
-        file=sys.stderr, flush=True)
+  _print_steps(done.env_steps, done.total_steps, done.steps_per_second, done.eta_seconds,
+               f"({done.where()})")
 
 
 def evaluate_together(trainer: Trainer, evaluate: Callable | None
@@ -235,10 +239,11 @@ def train(env: Any, objective: Objective, config: PPOConfig, *, seeds: Sequence[
     return state, metrics, evals
 
   def pace(state):
-    """The env steps ``state`` has trained, the seconds since ``t0``, and the env steps a second
-    since ``t0``, compilation left out."""
+    """The env steps ``state`` has trained, the seconds since ``t0``, the env steps a second since
+    ``t0`` (compilation left out) and the seconds the run's other steps would take at that rate."""
     env_steps, elapsed = _env_steps(state), time.time() - t0
-    return env_steps, elapsed, (env_steps - steps0) / max(elapsed - compile_seconds, 1e-9)
+    rate = (env_steps - steps0) / max(elapsed - compile_seconds, 1e-9)
+    return env_steps, elapsed, rate, (total - env_steps) / max(rate, 1e-9)
 
   # Segments are dispatched from a second thread, so that the host checks, checkpoints and reports
   # segment k while the device runs segment k + 1 (JAX's asynchronous dispatch alone did not
@@ -257,7 +262,7 @@ def train(env: Any, objective: Objective, config: PPOConfig, *, seeds: Sequence[
       partial_metrics.append({k: np.asarray(v) for k, v in metrics.items()
                               if not k.startswith("nonfinite/")})
       if evals is None:   # mid-chunk: a checkpoint, no row
-        env_steps, elapsed, rate = pace(state)
+        env_steps, elapsed, rate, eta = pace(state)
         if checkpoint_dir:
           partial = {"iterations": first + length, "time": time_before + elapsed,
                      "metrics": _metrics_to_json(_join(partial_metrics))}
@@ -265,12 +270,12 @@ def train(env: Any, objective: Objective, config: PPOConfig, *, seeds: Sequence[
                                                 "partial": partial})
         if on_segment:
           on_segment(SegmentDone(chunk + 1, first + length, per_chunk, env_steps, float(total),
-                                 rate, (total - env_steps) / max(rate, 1e-9), checkpoint_dir))
+                                 rate, eta, checkpoint_dir))
         continue
       evals = jax.device_get(evals)
-      env_steps, elapsed, rate = pace(state)
+      env_steps, elapsed, rate, eta = pace(state)
       row = {"env_steps": env_steps, "time": time_before + elapsed, "steps_per_second": rate,
-             "total_steps": float(total), "eta_seconds": (total - env_steps) / max(rate, 1e-9),
+             "total_steps": float(total), "eta_seconds": eta,
              "compile_seconds": compile_seconds}
       per_seed = reduce_stats(_join(partial_metrics), axis=1, xp=np)
       partial_metrics = []
