@@ -145,10 +145,13 @@ fingerprint() {
     | xargs -0 -r md5sum | md5sum)
 }
 
-# 3. Train until the deadline.
+# 3. Train until the deadline. BLX_STOP_BY (blx.training's time limit, unless the call gives its
+#    own) is 15 s before it, room for the last segment's checkpoint: blx's training stops by
+#    itself after the last segment that ends in time, and the call returns that much sooner.
 found=$(fingerprint)
 echo "[device_call] $(date -u +%FT%TZ) running for at most ${seconds} s: $*" | tee -a "$log"
-timeout -s INT -k 30 "$seconds" "$@" >> "$log" 2>&1
+BLX_STOP_BY=${BLX_STOP_BY:-$(( $(date +%s) + seconds - 15 ))} \
+  timeout -s INT -k 30 "$seconds" "$@" >> "$log" 2>&1
 status=$?
 echo "[device_call] $(date -u +%FT%TZ) exit status $status" | tee -a "$log"
 

@@ -24,11 +24,18 @@ from blx.training.ppo import (PolicyParams, Trainer, TrainState, make_trainer, p
 __all__ = ["TrainResult", "train", "run_keys", "NonFiniteError", "evaluate_together", "compile_all",
            "parallel_compile_default", "restore_state", "drop_env_state", "segment_length",
            "checkpoint_finished", "checkpoint_progress", "checkpoint_env_steps",
-           "config_as_trained"]
+           "config_as_trained", "TimeLimitReached", "stop_time"]
 
 
 class NonFiniteError(FloatingPointError):
   """Training produced a non-finite observation, reward, loss, gradient or parameter."""
+
+
+class TimeLimitReached(KeyboardInterrupt):
+  """``train`` stopped before a segment that would have ended past its time limit (``stop_by``):
+  the checkpoint holds every segment before it. A ``KeyboardInterrupt``, so that whatever ends a
+  run stopped by Ctrl-C (its checkpoint kept, its sweep stopped with the command that continues
+  it, ``blx``'s exit status 130) ends this one the same way."""
 
 
 class TrainResult(NamedTuple):
@@ -126,7 +133,8 @@ def train(env: Any, objective: Objective, config: PPOConfig, *, seeds: Sequence[
           resume: bool = False, evaluate: Callable | None = None,
           parallel_compile: bool | None = None,
           checkpoint_segments: int | None = None,
-          on_segment: Callable[[SegmentDone], None] | None = None) -> TrainResult:
+          on_segment: Callable[[SegmentDone], None] | None = None,
+          stop_by: float | None = None) -> TrainResult:
   """Trains ``objective`` on ``env`` with PPO for every seed in one vmapped program.
 
   Args:
@@ -154,6 +162,13 @@ def train(env: Any, objective: Objective, config: PPOConfig, *, seeds: Sequence[
     on_segment: receives a ``SegmentDone`` after each segment that ends within its chunk (after
       its checkpoint). None (the default) prints ``print_segment``'s line where ``progress`` is
       True, and else nothing.
+    stop_by: a time limit, as a Unix time in seconds (``time.time()``'s): after each segment, once
+      its checkpoint is written, the run stops where the next segment would end after it, at the
+      pace of the segments so far (each one's seconds an iteration, and an evaluation's extra
+      seconds; the first segment always runs). The next segment, already queued on the device,
+      is dropped. So a run given the time it may use (a job's or a device call's limit) ends on
+      its own with all it trained kept, instead of losing the segment in flight to a kill. None
+      (the default) reads ``$BLX_STOP_BY``, else no limit.
 
   Raises:
     NonFiniteError: an observation, a reward, a loss, a gradient or a parameter became
@@ -162,11 +177,13 @@ def train(env: Any, objective: Objective, config: PPOConfig, *, seeds: Sequence[
       last good chunk (or segment) is kept.
     KeyboardInterrupt: passed on at once, with the checkpoint of the last chunk (or segment)
       reported; the chunk in flight is dropped, and does not hold the process's exit.
+    TimeLimitReached: (a ``KeyboardInterrupt``) the next segment would end past ``stop_by``.
   """
   seeds = list(check_seeds(seeds, "train: seeds"))
   trainer = make_trainer(env, objective, config)
   per_chunk = trainer.iterations_per_chunk
   segment = segment_length(per_chunk, checkpoint_segments)
+  stop_by = stop_time(stop_by)
   init_keys, eval_keys = run_keys(seeds)
   init_fn = jax.jit(jax.vmap(trainer.init))
   evaluate_all = evaluate_together(trainer, evaluate)
@@ -248,8 +265,10 @@ def train(env: Any, objective: Objective, config: PPOConfig, *, seeds: Sequence[
   # Segments are dispatched from a second thread, so that the host checks, checkpoints and reports
   # segment k while the device runs segment k + 1 (JAX's asynchronous dispatch alone did not
   # overlap them on a GPU: each report came one chunk late, benchmarks/RESULTS.md session 13).
+  clock = _SegmentClock()
   try:
     pending = _in_background(dispatch, state, pieces[0]) if pieces else None
+    clock.started()
     for i, (chunk, first, length) in enumerate(pieces):
       state, metrics, evals = pending.result()
       # The small results start for the host before the next segment is queued behind them. A
@@ -258,6 +277,9 @@ def train(env: Any, objective: Objective, config: PPOConfig, *, seeds: Sequence[
         leaf.copy_to_host_async()
       pending = _in_background(dispatch, state, pieces[i + 1]) if i + 1 < len(pieces) else None
       metrics = jax.device_get(metrics)
+      if evals is not None:
+        evals = jax.device_get(evals)
+      clock.ended(length, evaluated=evals is not None)
       _check_finite(metrics, chunk * per_chunk + first, seeds, checkpoint_dir)
       partial_metrics.append({k: np.asarray(v) for k, v in metrics.items()
                               if not k.startswith("nonfinite/")})
@@ -271,8 +293,8 @@ def train(env: Any, objective: Objective, config: PPOConfig, *, seeds: Sequence[
         if on_segment:
           on_segment(SegmentDone(chunk + 1, first + length, per_chunk, env_steps, float(total),
                                  rate, eta, checkpoint_dir))
+        _stop_if_late(stop_by, clock, pieces[i + 1:], per_chunk)
         continue
-      evals = jax.device_get(evals)
       env_steps, elapsed, rate, eta = pace(state)
       row = {"env_steps": env_steps, "time": time_before + elapsed, "steps_per_second": rate,
              "total_steps": float(total), "eta_seconds": eta,
@@ -287,10 +309,12 @@ def train(env: Any, objective: Objective, config: PPOConfig, *, seeds: Sequence[
                                               "history": history})
       if report:
         report(row)
-  except KeyboardInterrupt:
+      _stop_if_late(stop_by, clock, pieces[i + 1:], per_chunk)
+  except KeyboardInterrupt as stop:
     if checkpoint_dir and checkpoint.exists(checkpoint_dir):
       progress = checkpoint_progress(checkpoint.read_meta(checkpoint_dir), per_chunk)
-      print(f"[blx] interrupted; the checkpoint in {checkpoint_dir} holds {progress}: call "
+      what = "stopped at the time limit" if isinstance(stop, TimeLimitReached) else "interrupted"
+      print(f"[blx] {what}; the checkpoint in {checkpoint_dir} holds {progress}: call "
             f"train(..., checkpoint_dir={checkpoint_dir!r}, resume=True) to continue",
             file=sys.stderr)
     raise
@@ -299,6 +323,73 @@ def train(env: Any, objective: Objective, config: PPOConfig, *, seeds: Sequence[
 
 
 DISPATCH_THREAD = "blx-dispatch"  # the thread's name, by which ``cli.run_main`` finds it
+STOP_BY_ENV = "BLX_STOP_BY"
+
+
+def stop_time(stop_by: float | None = None) -> float | None:
+  """``train``'s time limit as a Unix time in seconds: ``stop_by``, or where it is None,
+  ``$BLX_STOP_BY`` (e.g. ``BLX_STOP_BY=$(( $(date +%s) + 3600 ))``: an hour from now), else None
+  (no limit). Refuses anything but a finite number, naming where it came from."""
+  where = "stop_by"
+  if stop_by is None:
+    setting = os.environ.get(STOP_BY_ENV, "").strip()
+    if not setting:
+      return None
+    where = f"${STOP_BY_ENV}"
+    try:
+      stop_by = float(setting)
+    except ValueError:
+      stop_by = setting   # refused below
+  if (isinstance(stop_by, bool) or not isinstance(stop_by, (int, float, np.integer, np.floating))
+      or not np.isfinite(stop_by)):
+    raise ValueError(f"{where}={stop_by!r}: give the time limit as a Unix time in seconds, e.g. "
+                     f"$(( $(date +%s) + 3600 )) for an hour from now")
+  return float(stop_by)
+
+
+class _SegmentClock:
+  """The pace of a run's segments on the device, for ``train``'s time limit: seconds an
+  iteration (from the last segment without an evaluation; until there is one, from the last
+  segment, its evaluation included) and an evaluation's extra seconds. A segment's time runs
+  from the end of the one before (the next is queued before the host checks and checkpoints a
+  segment, so that host work does not count) or, for the first, from its dispatch."""
+
+  def __init__(self):
+    self.last = time.time()
+    self.per_iteration: float | None = None
+    self.evaluation = 0.0
+    self._measured = False   # per_iteration from a segment without an evaluation
+
+  def started(self) -> None:
+    self.last = time.time()
+
+  def ended(self, iterations: int, evaluated: bool) -> None:
+    now = time.time()
+    seconds, self.last = now - self.last, now
+    if not evaluated:
+      self.per_iteration, self._measured = seconds / iterations, True
+    elif not self._measured:
+      self.per_iteration = seconds / iterations
+    else:
+      self.evaluation = max(seconds - iterations * self.per_iteration, 0.0)
+
+  def next_ends(self, iterations: int, evaluates: bool) -> float:
+    """When a segment of ``iterations``, queued at the end of the last, would end (Unix time)."""
+    return self.last + iterations * self.per_iteration + (self.evaluation if evaluates else 0.0)
+
+
+def _stop_if_late(stop_by: float | None, clock: _SegmentClock, left: list, per_chunk: int) -> None:
+  """Raises ``TimeLimitReached`` where the next of the segments ``left`` would end past
+  ``stop_by`` (the one just checkpointed is kept; the next, already queued, is dropped)."""
+  if stop_by is None or not left:
+    return
+  chunk, first, length = left[0]
+  ends = clock.next_ends(length, evaluates=first + length == per_chunk)
+  if ends > stop_by:
+    print(f"[blx] time limit: stopping before iterations {first + 1}-{first + length} of chunk "
+          f"{chunk + 1}, which would end about {ends - stop_by:.0f} s past it "
+          f"({time.strftime('%H:%M:%S', time.localtime(stop_by))})", file=sys.stderr)
+    raise TimeLimitReached(f"the next segment would end {ends - stop_by:.0f} s past the limit")
 
 
 def run_keys(seeds: Sequence[int]) -> tuple[jax.Array, jax.Array]:

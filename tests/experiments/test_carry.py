@@ -426,12 +426,17 @@ def test_a_device_call_resumes_from_carried_parts_and_sends_the_run_back(tmp_pat
   # then adds to it.
   train = ("import os, blxprobe; r = 'runs/hc/mimax/objective=diayn'; "
            "assert os.path.exists(r + '/checkpoint/checkpoint.npz'); "
-           "open(r + '/metrics.csv', 'a').write('0,10\\n'); print('trained')")
+           "open(r + '/metrics.csv', 'a').write('0,10\\n'); "
+           "print('trained, stop by', os.environ['BLX_STOP_BY'])")
+  began = time.time()
   done = _device_call(device, tmp_path / "out", "hc", "runs/hc", 60, sys.executable, "-c", train,
                       extra={"RESUME": "1"})
   assert done.returncode == 0, done.stderr + done.stdout
   log = (tmp_path / "out" / "hc.log").read_text()
   assert "unpacked into runs/hc" in log and "trained" in log and "exit status 0" in log
+  # training's time limit (blx.training.stop_time) is 15 s before the call's 60 s end
+  stop_by = int(log.split("trained, stop by ")[1].split()[0])
+  assert began + 45 - 1 <= stop_by <= time.time() + 45
   assert "installed .whl-train" in log and (device / "site" / "blxprobe.py").exists()
   back = sorted(str(p) for p in (tmp_path / "out").glob("hc.tar.part_*"))
   assert back
@@ -443,14 +448,17 @@ def test_a_device_call_resumes_from_carried_parts_and_sends_the_run_back(tmp_pat
 
   # A second call on the same machine keeps the run it left (the parts are not unpacked over
   # it); one that outlasts its seconds is interrupted, and what it had is still sent back.
-  slow = "import time; open('runs/hc/late', 'w').write('x'); time.sleep(30)"
-  done = _device_call(device, tmp_path / "out2", "hc", "runs/hc", 1, sys.executable, "-c", slow)
+  # A limit the call is given is its own.
+  slow = ("import os, time; open('runs/hc/late', 'w').write(os.environ['BLX_STOP_BY']); "
+          "time.sleep(30)")
+  done = _device_call(device, tmp_path / "out2", "hc", "runs/hc", 1, sys.executable, "-c", slow,
+                      extra={"BLX_STOP_BY": "123"})
   assert done.returncode == 124
   log = (tmp_path / "out2" / "hc.log").read_text()
   assert "unpacked" not in log and "installed" not in log and "exit status 124" in log
   carry.unpack(sorted(str(p) for p in (tmp_path / "out2").glob("hc.tar.part_*")),
                str(tmp_path / "home2"))
-  assert (tmp_path / "home2" / "late").read_text() == "x"
+  assert (tmp_path / "home2" / "late").read_text() == "123"
   assert (tmp_path / "home2" / "mimax" / "objective=diayn" / "metrics.csv").read_text().endswith(
       "0,10\n")
 

@@ -4,13 +4,14 @@ the chunk, and resumed from there, with the same or another cut."""
 from __future__ import annotations
 
 import shutil
+import time
 
 import jax
 import numpy as np
 import pytest
 
 from blx import envs, training
-from blx.training import checkpoint
+from blx.training import checkpoint, loop
 from tests.training.tiny import SMALL, reach_latent
 
 # two chunks of five iterations each
@@ -127,3 +128,70 @@ def test_the_number_of_segments_comes_from_the_environment_where_not_given(monke
   with pytest.raises(ValueError, match=r"\$BLX_CHECKPOINT_SEGMENTS='half': give a whole number "
                                        r"of segments per chunk, 1 to 10"):
     training.segment_length(10)
+
+
+def test_a_time_limit_stops_after_a_checkpointed_segment_and_the_run_resumes_the_same(
+    tmp_path, monkeypatch, capsys):
+  monkeypatch.delenv("BLX_CHECKPOINT_SEGMENTS", raising=False)
+  env = _env()
+  whole = training.train(env, reach_latent(), CONFIG, progress=False)
+  # A limit already past: the first segment always runs (there is no pace yet to judge it by),
+  # is checkpointed, and the run stops before the second, whatever the machine's speed.
+  directory = str(tmp_path / "ckpt")
+  with pytest.raises(training.TimeLimitReached) as stopped:
+    training.train(env, reach_latent(), CONFIG, progress=False, checkpoint_dir=directory,
+                   checkpoint_segments=2, stop_by=time.time() - 1)
+  assert isinstance(stopped.value, KeyboardInterrupt)   # ended as Ctrl-C ends a run
+  err = capsys.readouterr().err
+  assert "[blx] time limit: stopping before iterations 4-5 of chunk 1, which would end about" in err
+  assert ("[blx] stopped at the time limit; the checkpoint in " + directory + " holds 0 of 2 chunks "
+          "and 3 of 5 iterations of the next: call train(") in err
+  meta = checkpoint.read_meta(directory)
+  assert meta["partial"]["iterations"] == 3 and meta["history"] == []
+  # Resumed under a limit far off (from the environment), it runs to the end: the same run.
+  monkeypatch.setenv("BLX_STOP_BY", str(time.time() + 1e6))
+  _same_run(whole, training.train(env, reach_latent(), CONFIG, progress=False,
+                                  checkpoint_dir=directory, resume=True, checkpoint_segments=2))
+
+
+def test_the_time_limit_judges_the_next_segment_by_the_pace_of_those_before(monkeypatch):
+  now = [100.0]
+  monkeypatch.setattr(loop.time, "time", lambda: now[0])
+  clock = loop._SegmentClock()
+  clock.started()
+  now[0] = 130.0
+  clock.ended(3, evaluated=True)        # no segment without an evaluation yet: 10 s an iteration
+  assert clock.next_ends(2, evaluates=False) == 150.0
+  now[0] = 140.0
+  clock.ended(2, evaluated=False)       # 5 s an iteration
+  assert clock.next_ends(3, evaluates=False) == 155.0
+  now[0] = 165.0
+  clock.ended(3, evaluated=True)        # 15 s for 3 iterations: 10 s of it the evaluation
+  assert clock.next_ends(2, evaluates=False) == 175.0
+  assert clock.next_ends(3, evaluates=True) == 190.0
+  # the next segment (iterations 1-3 of the chunk, per_chunk 5) would end at 180
+  left = [(1, 0, 3), (1, 3, 2)]
+  loop._stop_if_late(180.0, clock, left, 5)   # ends at the limit: runs
+  loop._stop_if_late(None, clock, left, 5)    # no limit
+  loop._stop_if_late(100.0, clock, [], 5)     # nothing left to run
+  with pytest.raises(training.TimeLimitReached, match="would end 1 s past the limit"):
+    loop._stop_if_late(179.0, clock, left, 5)
+  # a segment that ends its chunk adds the evaluation's 10 s
+  with pytest.raises(training.TimeLimitReached, match="would end 10 s past the limit"):
+    loop._stop_if_late(190.0, clock, [(1, 0, 5)], 5)   # 165 + 5 x 5 + 10
+
+
+def test_the_time_limit_comes_from_the_environment_where_not_given_and_bad_ones_are_named(
+    monkeypatch):
+  monkeypatch.delenv("BLX_STOP_BY", raising=False)
+  assert training.stop_time() is None
+  monkeypatch.setenv("BLX_STOP_BY", " 1700000000 ")
+  assert training.stop_time() == 1.7e9
+  assert training.stop_time(5) == 5.0      # an argument wins
+  monkeypatch.setenv("BLX_STOP_BY", "soon")
+  with pytest.raises(ValueError, match=r"\$BLX_STOP_BY='soon': give the time limit as a Unix "
+                                       r"time in seconds, e\.g\. \$\(\( \$\(date \+%s\) \+ 3600"):
+    training.stop_time()
+  for bad in (float("nan"), float("inf"), True, "1700000000"):
+    with pytest.raises(ValueError, match=r"stop_by=.*: give the time limit as a Unix time"):
+      training.stop_time(bad)
