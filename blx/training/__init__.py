@@ -1,11 +1,11 @@
 """blx.training — one PPO: pure train step (jit, vmap over seeds, sharded) and its host loop."""
 
 from blx.training.config import PPOConfig, check_seeds, ppo_defaults
-from blx.training.loop import (NonFiniteError, SegmentDone, TrainResult, checkpoint_env_steps,
-                               checkpoint_finished, checkpoint_progress, config_as_trained,
-                               drop_env_state, evaluate_together, print_progress, print_segment,
-                               restore_state, segment_length, stop_time, TimeLimitReached,
-                               train)
+from blx.training.loop import (NonFiniteError, SegmentDone, TimeLimitReached, TrainResult,
+                               checkpoint_env_steps, checkpoint_finished, checkpoint_progress,
+                               config_as_trained, drop_env_state, evaluate_together,
+                               print_progress, print_segment, restore_state, segment_length,
+                               stop_time, train)
 from blx.training.losses import clipped_surrogate, gae
 from blx.training.ppo import (RETURN_KEYS, Params, PolicyParams, Trainer, TrainState, make_policy,
                               make_train, make_trainer, place_state, policy_params)

@@ -265,10 +265,9 @@ def train(env: Any, objective: Objective, config: PPOConfig, *, seeds: Sequence[
   # Segments are dispatched from a second thread, so that the host checks, checkpoints and reports
   # segment k while the device runs segment k + 1 (JAX's asynchronous dispatch alone did not
   # overlap them on a GPU: each report came one chunk late, benchmarks/RESULTS.md session 13).
-  clock = _SegmentClock()
   try:
     pending = _in_background(dispatch, state, pieces[0]) if pieces else None
-    clock.started()
+    clock = _SegmentClock()
     for i, (chunk, first, length) in enumerate(pieces):
       state, metrics, evals = pending.result()
       # The small results start for the host before the next segment is queued behind them. A
@@ -354,14 +353,11 @@ class _SegmentClock:
   from the end of the one before (the next is queued before the host checks and checkpoints a
   segment, so that host work does not count) or, for the first, from its dispatch."""
 
-  def __init__(self):
+  def __init__(self):   # made as the first segment is queued
     self.last = time.time()
     self.per_iteration: float | None = None
     self.evaluation = 0.0
     self._measured = False   # per_iteration from a segment without an evaluation
-
-  def started(self) -> None:
-    self.last = time.time()
 
   def ended(self, iterations: int, evaluated: bool) -> None:
     now = time.time()

@@ -158,7 +158,6 @@ def test_the_time_limit_judges_the_next_segment_by_the_pace_of_those_before(monk
   now = [100.0]
   monkeypatch.setattr(loop.time, "time", lambda: now[0])
   clock = loop._SegmentClock()
-  clock.started()
   now[0] = 130.0
   clock.ended(3, evaluated=True)        # no segment without an evaluation yet: 10 s an iteration
   assert clock.next_ends(2, evaluates=False) == 150.0
