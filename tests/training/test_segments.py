@@ -133,6 +133,7 @@ def test_the_number_of_segments_comes_from_the_environment_where_not_given(monke
 def test_a_time_limit_stops_after_a_checkpointed_segment_and_the_run_resumes_the_same(
     tmp_path, monkeypatch, capsys):
   monkeypatch.delenv("BLX_CHECKPOINT_SEGMENTS", raising=False)
+  monkeypatch.delenv("BLX_STOP_BY", raising=False)   # the run trained whole has no limit
   env = _env()
   whole = training.train(env, reach_latent(), CONFIG, progress=False)
   # A limit already past: the first segment always runs (there is no pace yet to judge it by),
