@@ -481,6 +481,7 @@ def train_run(spec: RunSpec, directory: str, *, resume: bool = False, progress=T
   An existing run directory is only continued with ``resume=True``; it is never overwritten.
   """
   env, objective, config = build(spec)
+  stop_by = training.stop_time()   # $BLX_STOP_BY, refused before a directory is made
   exists = os.path.exists(os.path.join(directory, "config.json"))
   if exists and not resume:
     raise RunError(f"{directory!r} already holds a run; pass --resume to continue it or choose "
@@ -542,7 +543,7 @@ def train_run(spec: RunSpec, directory: str, *, resume: bool = False, progress=T
   try:
     result = training.train(env, objective, config, seeds=spec.seeds, progress=report,
                             checkpoint_dir=checkpoint_dir, resume=resume, evaluate=evaluator,
-                            on_segment=segment_done)
+                            on_segment=segment_done, stop_by=stop_by)
   except BaseException:  # stopped (Ctrl-C, a device call's limit) or failed: the steps it kept
     _to_last_checkpoint(directory, checkpoint_dir, segments)
     raise

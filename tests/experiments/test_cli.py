@@ -852,6 +852,14 @@ def test_bad_agent_is_named_before_a_run_directory_is_made(tmp_path, capsys, arg
   assert not out.exists()
 
 
+def test_a_bad_time_limit_is_named_before_a_run_directory_is_made(tmp_path, capsys, monkeypatch):
+  out = tmp_path / "run"
+  monkeypatch.setenv("BLX_STOP_BY", "soon")
+  assert cli.main(["train", "--out", str(out), *TINY]) == 2
+  assert "$BLX_STOP_BY='soon': give the time limit as a Unix time" in capsys.readouterr().err
+  assert not out.exists()
+
+
 def test_a_sweep_spec_can_name_the_agent_or_sweep_over_agents():
   from blx.experiments import sweep
   spec = {"env": "chase", "objective": "diayn", "agent": ["agent0", "agent1"],
