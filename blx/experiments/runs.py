@@ -502,6 +502,8 @@ def train_run(spec: RunSpec, directory: str, *, resume: bool = False, progress=T
              else {})
   if resumed:
     config = _as_trained(directory, spec, config, resumed)
+  # $BLX_CHECKPOINT_SEGMENTS, refused before a directory is made or a resume is recorded
+  training.segment_length(training.run_chunks(config, getattr(env, "action_repeat", 1))[1])
   segments = read_provenance(directory) if exists else []
   eval_protocol = check_eval_protocol(directory, eval_metrics, eval_protocol, segments)
   if not exists:  # a resumed run keeps its config.json untouched

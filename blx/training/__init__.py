@@ -8,7 +8,7 @@ from blx.training.loop import (NonFiniteError, SegmentDone, TimeLimitReached, Tr
                                stop_time, train)
 from blx.training.losses import clipped_surrogate, gae
 from blx.training.ppo import (RETURN_KEYS, Params, PolicyParams, Trainer, TrainState, make_policy,
-                              make_train, make_trainer, place_state, policy_params)
+                              make_train, make_trainer, place_state, policy_params, run_chunks)
 
 __all__ = ["RETURN_KEYS", "PPOConfig", "ppo_defaults", "check_seeds", "NonFiniteError",
            "TimeLimitReached", "stop_time",
@@ -17,4 +17,5 @@ __all__ = ["RETURN_KEYS", "PPOConfig", "ppo_defaults", "check_seeds", "NonFinite
            "drop_env_state", "segment_length", "checkpoint_finished", "checkpoint_progress",
            "checkpoint_env_steps", "config_as_trained", "clipped_surrogate", "gae", "Params",
            "PolicyParams", "policy_params",
-           "Trainer", "TrainState", "make_policy", "make_train", "make_trainer", "place_state"]
+           "Trainer", "TrainState", "make_policy", "make_train", "make_trainer", "place_state",
+           "run_chunks"]

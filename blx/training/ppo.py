@@ -28,7 +28,8 @@ from blx.training.config import PPOConfig
 
 __all__ = ["Params", "PolicyParams", "TrainState", "Trainer", "Learner", "make_learner",
            "make_trainer", "make_train", "make_policy", "network_input", "policy_params", "env_step",
-           "collect", "ppo_loss", "sgd_step", "update", "evaluate", "place_state", "RETURN_KEYS"]
+           "collect", "ppo_loss", "sgd_step", "update", "evaluate", "place_state", "run_chunks",
+           "RETURN_KEYS"]
 
 
 @struct.dataclass
@@ -516,6 +517,16 @@ def evaluation_episodes(learner: Learner, env: Any, steps: int, params: PolicyPa
   return envs_lib.Episodes(env, env_state, act, record, jax.random.fold_in(key, 2), steps), score
 
 
+def run_chunks(config: PPOConfig, action_repeat: int = 1) -> tuple[int, int]:
+  """The chunks of a run of ``config`` on an env of ``action_repeat``, and the iterations of each
+  (``Trainer.num_chunks``, ``Trainer.iterations_per_chunk``): the iterations that reach
+  ``num_timesteps`` (rounded up), in ``num_evals`` chunks (fewer where there are fewer
+  iterations), each of them rounded up."""
+  iterations = -(-config.num_timesteps // (config.env_steps_per_iteration * action_repeat))
+  num_chunks = min(config.num_evals, iterations)
+  return num_chunks, -(-iterations // num_chunks)
+
+
 def make_trainer(env: Any, objective: Objective, config: PPOConfig) -> Trainer:
   """Binds the pieces above into the pure training functions for ``env``, run as given: its
   episode length and action repeat are its own (``blx.envs.create``); training adds auto-reset."""
@@ -538,10 +549,7 @@ def make_trainer(env: Any, objective: Objective, config: PPOConfig) -> Trainer:
   policy_in = obs_size + (objective.latent_size if objective.conditions_policy else 0)
   shard = _data_sharding(c.num_envs)
 
-  env_steps_per_iteration = c.env_steps_per_iteration * repeat
-  iterations = -(-c.num_timesteps // env_steps_per_iteration)
-  num_chunks = min(c.num_evals, iterations)
-  iterations_per_chunk = -(-iterations // num_chunks)
+  num_chunks, iterations_per_chunk = run_chunks(c, repeat)
 
   def init(key: jax.Array) -> TrainState:
     policy_key, value_key, obj_key, env_key, z_key, key = jax.random.split(key, 6)
@@ -600,8 +608,7 @@ def make_trainer(env: Any, objective: Objective, config: PPOConfig) -> Trainer:
   return Trainer(init=init, chunk=chunk, collect=collect_fn, update=update_fn,
                  evaluate=evaluate_fn, evaluation_episodes=evaluation_episodes_fn, train=train,
                  policy=policy, num_chunks=num_chunks, iterations_per_chunk=iterations_per_chunk,
-                 config=c,
-                 env_steps_per_iteration=env_steps_per_iteration)
+                 config=c, env_steps_per_iteration=c.env_steps_per_iteration * repeat)
 
 
 def _check_per_agent_reward(objective: Objective, obs_size: int, action_size: int,

@@ -860,6 +860,27 @@ def test_a_bad_time_limit_is_named_before_a_run_directory_is_made(tmp_path, caps
   assert not out.exists()
 
 
+def test_bad_checkpoint_segments_are_named_before_a_run_directory_is_made_or_a_resume_recorded(
+    trained, tmp_path, capsys, monkeypatch):
+  # TINY: 10 iterations of 160 env steps in 2 chunks, so 1 to 5 segments a chunk
+  out = tmp_path / "run"
+  for setting, named in [("6", "$BLX_CHECKPOINT_SEGMENTS=6"),
+                         ("half", "$BLX_CHECKPOINT_SEGMENTS='half'")]:
+    monkeypatch.setenv("BLX_CHECKPOINT_SEGMENTS", setting)
+    assert cli.main(["train", "--out", str(out), *TINY]) == 2
+    assert (f"{named}: give a whole number of segments per chunk, 1 to 5 (this run's iterations "
+            "per chunk)") in capsys.readouterr().err
+    assert not out.exists()
+  # a resume records nothing (provenance.json would name a machine that trained nothing)
+  resumed = str(tmp_path / "resumed")
+  shutil.copytree(trained, resumed)
+  before = {name: open(os.path.join(resumed, name), "rb").read()
+            for name in ("config.json", "provenance.json", "metrics.csv")}
+  assert cli.main(["train", "--resume", resumed]) == 2
+  assert "$BLX_CHECKPOINT_SEGMENTS='half'" in capsys.readouterr().err
+  assert {name: open(os.path.join(resumed, name), "rb").read() for name in before} == before
+
+
 def test_a_sweep_spec_can_name_the_agent_or_sweep_over_agents():
   from blx.experiments import sweep
   spec = {"env": "chase", "objective": "diayn", "agent": ["agent0", "agent1"],
