@@ -209,7 +209,9 @@ def cmd_train(args) -> int:
     spec = _spec_from_args(args)
     out = args.out or os.path.join(
         "runs", f"{spec.env}_{spec.objective}_{time.strftime('%Y%m%d-%H%M%S')}")
-  runs.build(spec)  # validate everything before creating a directory
+  # everything validated ($BLX_STOP_BY and $BLX_CHECKPOINT_SEGMENTS too) before a directory is
+  # made or the run named
+  runs.check_time_settings(spec, out, resume=resume)
   print(f"[blx] training {spec.objective} on {spec.env}, seeds {list(spec.seeds)} -> {out}",
         file=sys.stderr)
   try:

@@ -468,6 +468,22 @@ def summarise(values: dict[str, list[float]]) -> dict[str, dict[str, float]]:
           for k, v in values.items()}
 
 
+def check_time_settings(spec: RunSpec, directory: str, *, resume: bool,
+                        built: tuple | None = None) -> None:
+  """Refuses a bad ``$BLX_STOP_BY`` or ``$BLX_CHECKPOINT_SEGMENTS`` (``training.stop_time``,
+  ``training.segment_length``) for the run ``train_run(spec, directory, resume=resume)`` would
+  train, with the settings it trains with (a resume's own), before anything is written.
+  ``train_run`` checks them itself; a caller that writes or says something first (a sweep's
+  folder, ``blx train``'s line naming the run) calls this before it. ``built``: ``build(spec)``,
+  where the caller has it."""
+  env, _, config = built if built is not None else build(spec)
+  training.stop_time()
+  ckpt = os.path.join(directory, "checkpoint")
+  if resume and checkpoint.exists(ckpt):
+    config, _ = training.config_as_trained(checkpoint.read_meta(ckpt), config, own=spec.ppo)
+  training.segment_length(training.run_chunks(config, getattr(env, "action_repeat", 1))[1])
+
+
 def train_run(spec: RunSpec, directory: str, *, resume: bool = False, progress=True,
               eval_metrics: bool = False, eval_protocol: str | None = None) -> Run:
   """Trains ``spec`` into ``directory`` and completes it: config, checkpoint, metrics.csv, then
@@ -481,7 +497,10 @@ def train_run(spec: RunSpec, directory: str, *, resume: bool = False, progress=T
   An existing run directory is only continued with ``resume=True``; it is never overwritten.
   """
   env, objective, config = build(spec)
-  stop_by = training.stop_time()   # $BLX_STOP_BY, refused before a directory is made
+  # $BLX_STOP_BY and $BLX_CHECKPOINT_SEGMENTS, refused before a directory is made or a resume
+  # is recorded
+  check_time_settings(spec, directory, resume=resume, built=(env, objective, config))
+  stop_by = training.stop_time()
   exists = os.path.exists(os.path.join(directory, "config.json"))
   if exists and not resume:
     raise RunError(f"{directory!r} already holds a run; pass --resume to continue it or choose "
@@ -502,8 +521,6 @@ def train_run(spec: RunSpec, directory: str, *, resume: bool = False, progress=T
              else {})
   if resumed:
     config = _as_trained(directory, spec, config, resumed)
-  # $BLX_CHECKPOINT_SEGMENTS, refused before a directory is made or a resume is recorded
-  training.segment_length(training.run_chunks(config, getattr(env, "action_repeat", 1))[1])
   segments = read_provenance(directory) if exists else []
   eval_protocol = check_eval_protocol(directory, eval_metrics, eval_protocol, segments)
   if not exists:  # a resumed run keeps its config.json untouched

@@ -171,29 +171,39 @@ def run_sweep(spec: dict, out: str, *, progress=True, eval_metrics: bool = False
   # blx.metrics how each objective is measured.
   built = [runs.build(run_spec) for _, run_spec in points]
   families = [metrics.family_of(objective) for _, objective, _ in built]
-  os.makedirs(out, exist_ok=True)
-  rows = []
-  for i, (name, run_spec) in enumerate(points):
+  # What each point does, settled before the sweep's folder is made: a point whose directory holds
+  # another definition, or a time setting a point to train cannot run with, is refused first.
+  plan = []   # per point: its directory, whether it has started, whether this call trains it
+  for (name, run_spec), point in zip(points, built):
     directory = os.path.join(out, name)
-    eval_path = os.path.join(directory, "eval.json")
-    if os.path.exists(os.path.join(directory, "config.json")):
-      _check_same_point(name, directory, run_spec, built[i][0].desc)
-    unfinished = _unfinished(directory) if os.path.exists(eval_path) else None
+    started = os.path.exists(os.path.join(directory, "config.json"))
+    if started:
+      _check_same_point(name, directory, run_spec, point[0].desc)
+    evaluated = os.path.exists(os.path.join(directory, "eval.json"))
+    unfinished = _unfinished(directory) if evaluated else None
     if unfinished and progress:
       print(f"[blx sweep] {name}: its eval.json scored an unfinished run ({unfinished}); "
             "not a final evaluation", flush=True)
-    if os.path.exists(eval_path) and not unfinished:
-      with open(eval_path) as f:
-        result = json.load(f)
-    elif select is not None and not select(name, run_spec):
-      continue
-    else:
+    trains = not (evaluated and not unfinished) and (select is None or select(name, run_spec))
+    if trains:
+      runs.check_time_settings(run_spec, directory, resume=started, built=point)
+    plan.append((directory, started, trains))
+  os.makedirs(out, exist_ok=True)
+  rows = []
+  for i, ((name, run_spec), (directory, started, trains)) in enumerate(zip(points, plan)):
+    eval_path = os.path.join(directory, "eval.json")
+    if trains:
       if progress:
         print(f"[blx sweep] {i + 1}/{len(points)}: {name}", flush=True)
-      resume = os.path.exists(os.path.join(directory, "config.json"))
-      result = runs.train_run(run_spec, directory, resume=resume, progress=progress,
+      result = runs.train_run(run_spec, directory, resume=started, progress=progress,
                               eval_metrics=eval_metrics,
                               eval_protocol=eval_protocol).meta["eval"]
+    # evaluated before, or by another process sharing the sweep (select) while this one trained
+    elif os.path.exists(eval_path) and not _unfinished(directory):
+      with open(eval_path) as f:
+        result = json.load(f)
+    else:
+      continue
     rows.append({"name": name, "env": run_spec.env, "objective": run_spec.objective,
                  "family": families[i].name, "columns": families[i].table,
                  "summary": result["summary"], "seeds": len(run_spec.seeds)})

@@ -856,8 +856,9 @@ def test_a_bad_time_limit_is_named_before_a_run_directory_is_made(tmp_path, caps
   out = tmp_path / "run"
   monkeypatch.setenv("BLX_STOP_BY", "soon")
   assert cli.main(["train", "--out", str(out), *TINY]) == 2
-  assert "$BLX_STOP_BY='soon': give the time limit as a Unix time" in capsys.readouterr().err
-  assert not out.exists()
+  err = capsys.readouterr().err
+  assert "$BLX_STOP_BY='soon': give the time limit as a Unix time" in err
+  assert not out.exists() and "[blx] training" not in err   # nor is a run announced
 
 
 def test_bad_checkpoint_segments_are_named_before_a_run_directory_is_made_or_a_resume_recorded(
@@ -868,17 +869,39 @@ def test_bad_checkpoint_segments_are_named_before_a_run_directory_is_made_or_a_r
                          ("half", "$BLX_CHECKPOINT_SEGMENTS='half'")]:
     monkeypatch.setenv("BLX_CHECKPOINT_SEGMENTS", setting)
     assert cli.main(["train", "--out", str(out), *TINY]) == 2
+    err = capsys.readouterr().err
     assert (f"{named}: give a whole number of segments per chunk, 1 to 5 (this run's iterations "
-            "per chunk)") in capsys.readouterr().err
-    assert not out.exists()
+            "per chunk)") in err
+    assert not out.exists() and "[blx] training" not in err   # nor is a run announced
   # a resume records nothing (provenance.json would name a machine that trained nothing)
   resumed = str(tmp_path / "resumed")
   shutil.copytree(trained, resumed)
   before = {name: open(os.path.join(resumed, name), "rb").read()
             for name in ("config.json", "provenance.json", "metrics.csv")}
   assert cli.main(["train", "--resume", resumed]) == 2
-  assert "$BLX_CHECKPOINT_SEGMENTS='half'" in capsys.readouterr().err
+  err = capsys.readouterr().err
+  assert "$BLX_CHECKPOINT_SEGMENTS='half'" in err and "[blx] training" not in err
   assert {name: open(os.path.join(resumed, name), "rb").read() for name in before} == before
+
+
+@pytest.mark.parametrize("setting, value, named", [
+    ("BLX_CHECKPOINT_SEGMENTS", "6", "$BLX_CHECKPOINT_SEGMENTS=6: give a whole number of segments "
+     "per chunk, 1 to 5"),
+    ("BLX_STOP_BY", "soon", "$BLX_STOP_BY='soon': give the time limit as a Unix time"),
+])
+def test_a_sweep_refuses_a_bad_time_setting_before_it_makes_its_folder(
+    tmp_path, capsys, monkeypatch, setting, value, named):
+  # the points' TINY settings: 10 iterations in 2 chunks, so 1 to 5 segments a chunk
+  spec = {"env": "point", "objective": ["gcrl", "gail"], "steps": 1600,
+          "config": dict(TINY_CONFIG, policy_hidden=[[16, 16]], value_hidden=[[16, 16]]),
+          "env_params": {"episode_length": 20}}
+  path = tmp_path / "spec.json"
+  path.write_text(json.dumps(spec))
+  out = tmp_path / "sweep"
+  monkeypatch.setenv(setting, value)
+  assert cli.main(["sweep", str(path), "--out", str(out)]) == 2
+  assert named in capsys.readouterr().err
+  assert not out.exists()   # a rerun would have taken an empty folder for its own
 
 
 def test_a_sweep_spec_can_name_the_agent_or_sweep_over_agents():
