@@ -45,7 +45,7 @@ __all__ = ["FORMAT_VERSION", "RunSpec", "Run", "RunError", "build", "load_run", 
            "write_metrics_csv", "default_obs_indices", "evaluator_for", "evaluate_run",
            "evaluate_run_keys", "summarise", "read_spec", "train_run", "evaluation", "write_eval",
            "Segment", "this_machine", "read_provenance", "settings_as_trained", "EVAL_PROTOCOLS",
-           "check_eval_protocol"]
+           "check_eval_protocol", "check_time_settings"]
 
 FORMAT_VERSION = 1
 PROVENANCE = "provenance.json"
