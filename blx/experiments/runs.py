@@ -469,19 +469,20 @@ def summarise(values: dict[str, list[float]]) -> dict[str, dict[str, float]]:
 
 
 def check_time_settings(spec: RunSpec, directory: str, *, resume: bool,
-                        built: tuple | None = None) -> None:
+                        built: tuple | None = None) -> float | None:
   """Refuses a bad ``$BLX_STOP_BY`` or ``$BLX_CHECKPOINT_SEGMENTS`` (``training.stop_time``,
   ``training.segment_length``) for the run ``train_run(spec, directory, resume=resume)`` would
-  train, with the settings it trains with (a resume's own), before anything is written.
-  ``train_run`` checks them itself; a caller that writes or says something first (a sweep's
-  folder, ``blx train``'s line naming the run) calls this before it. ``built``: ``build(spec)``,
-  where the caller has it."""
+  train, with the settings it trains with (a resume's own), before anything is written; returns
+  the time limit (``training.stop_time()``). ``train_run`` checks them itself; a caller that
+  writes or says something first (a sweep's folder, ``blx train``'s line naming the run) calls
+  this before it. ``built``: ``build(spec)``, where the caller has it."""
   env, _, config = built if built is not None else build(spec)
-  training.stop_time()
+  stop_by = training.stop_time()
   ckpt = os.path.join(directory, "checkpoint")
   if resume and checkpoint.exists(ckpt):
     config, _ = training.config_as_trained(checkpoint.read_meta(ckpt), config, own=spec.ppo)
   training.segment_length(training.run_chunks(config, getattr(env, "action_repeat", 1))[1])
+  return stop_by
 
 
 def train_run(spec: RunSpec, directory: str, *, resume: bool = False, progress=True,
@@ -499,8 +500,7 @@ def train_run(spec: RunSpec, directory: str, *, resume: bool = False, progress=T
   env, objective, config = build(spec)
   # $BLX_STOP_BY and $BLX_CHECKPOINT_SEGMENTS, refused before a directory is made or a resume
   # is recorded
-  check_time_settings(spec, directory, resume=resume, built=(env, objective, config))
-  stop_by = training.stop_time()
+  stop_by = check_time_settings(spec, directory, resume=resume, built=(env, objective, config))
   exists = os.path.exists(os.path.join(directory, "config.json"))
   if exists and not resume:
     raise RunError(f"{directory!r} already holds a run; pass --resume to continue it or choose "
