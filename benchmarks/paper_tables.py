@@ -23,10 +23,12 @@ episodes act (``eval_actions``), which the paper's metrics do not depend on.
 seed by seed, e.g. an option's arm against the paper's row trained on the same seed numbers.
 ``--first-seed N`` trains seeds N .. N + seeds - 1, so that one row's seeds can be split over
 processes or device calls; ``--compare DIR1 DIR2`` then merges the ``eval.json`` files found at the
-same path under each directory into one row (their seeds must not overlap). ``--eval-metrics`` also
-logs the paper's metrics at every evaluation during training (e.g. D-min's mode shares), at the cost
-of a quick evaluation each time (4 episodes; ``--eval-protocol final``: the final evaluation's 10,
-``runs.EVAL_PROTOCOLS``).
+same path under each directory into one row (their seeds must not overlap; files at one path that
+are not one row's parts are refused, as is a DIR without an ``eval.json``, each named); where one
+table holds several evaluations of one row (a rerun beside the first run), each of their rows names
+its file. ``--eval-metrics`` also logs the paper's metrics at every evaluation during training (e.g.
+D-min's mode shares), at the cost of a quick evaluation each time (4 episodes; ``--eval-protocol
+final``: the final evaluation's 10, ``runs.EVAL_PROTOCOLS``).
 
 MI-max: gcrl, diayn, cdiayn, diayn_full on the env's "vel" indices (Ant and Humanoid: xy velocity;
 HalfCheetah: x velocity), obs_scale 5, spectral norm on; D-min: gail, gail2, airl, mle to the
@@ -41,6 +43,7 @@ reaches the paper's mean - 1 std (in the direction where larger is better).
 from __future__ import annotations
 
 import argparse
+import collections
 import csv
 import glob
 import json
@@ -131,11 +134,14 @@ def mean_std(values: list[float]) -> tuple[float, float]:
 OTHER_GOALS = " (not the paper's goals: blx's before session 41)"
 
 
-def verdicts(eval_json: dict) -> list[str]:
+def verdicts(eval_json: dict, source: str | None = None) -> list[str]:
   """Markdown rows: metric, blx mean ± std (n), paper, Welch t and p, and whether blx reaches the
   paper's mean - std. An LGR evaluated on other goals than the paper's (``evaluated_on``'s
-  ``lgr_goals`` not "braxlines") says so (``OTHER_GOALS``)."""
+  ``lgr_goals`` not "braxlines") says so (``OTHER_GOALS``). ``source``, where given, names the
+  evaluation's file beside its algorithm (``compare`` does where one table holds several
+  evaluations of one row)."""
   name, env = eval_json["objective"], eval_json.get("env", "ant")
+  algorithm = name if source is None else f"{name} ({source})"
   papers_goals = (eval_json.get("evaluated_on") or {}).get("lgr_goals") == "braxlines"
   lines = []
   # Each metric in blx's fixed window, then (where the run logged it) in the window Braxlines'
@@ -158,7 +164,7 @@ def verdicts(eval_json: dict) -> list[str]:
       test = "n/a (1 seed) | n/a"
     if metric == "eval/lgr" and not papers_goals:
       key += OTHER_GOALS
-    lines.append(f"| {env} | {name} | {key} | {mu:.3f} ± {sd:.3f} ({len(values)}) "
+    lines.append(f"| {env} | {algorithm} | {key} | {mu:.3f} ± {sd:.3f} ({len(values)}) "
                  f"| {mean:.3f} ± {std:.3f} | {test} | {ok} |")
   return lines
 
@@ -219,19 +225,41 @@ def eval_options(eval_path: str) -> list[str]:
 def compare(*directories: str) -> str:
   """The verdict table for every ``eval.json`` under the directories; files at the same path under
   several directories are parts of one row (``merge``). Below it, each row's PPO settings that are
-  not the original's (``options_line``, from the ``config.json`` beside its ``eval.json``)."""
+  not the original's (``options_line``, from the ``config.json`` beside its ``eval.json``). Where
+  the table holds several evaluations of one env's row (a rerun beside the first run, say), each of
+  their rows names its file. Raises ValueError for a directory that holds no ``eval.json``, and for
+  files at one path that are not parts of one row, naming them."""
   rows = list(VERDICT_HEADER)
   parts: dict[str, list[dict]] = {}
+  found: dict[str, list[str]] = {}  # where each path's parts came from
   notes: dict[str, list[str]] = {}
   for directory in directories:
-    for path in glob.glob(os.path.join(directory, "**", "*eval.json"), recursive=True):
+    paths = glob.glob(os.path.join(directory, "**", "*eval.json"), recursive=True)
+    if not paths:
+      raise ValueError(f"no eval.json under {directory}" + (
+          "" if os.path.isdir(directory) else " (no such directory)") + ": give the --out of "
+          "paper_tables.py, a run directory, or a folder of committed rows (NAME_eval.json)")
+    for path in paths:
       rel = os.path.relpath(path, directory)
       with open(path) as f:
         parts.setdefault(rel, []).append(json.load(f))
+      found.setdefault(rel, []).append(directory)
       seen = notes.setdefault(rel, [])
       seen += [line for line in eval_options(path) if line not in seen]
+  merged = {}
   for rel in sorted(parts):
-    rows += verdicts(merge(parts[rel]))
+    try:
+      merged[rel] = merge(parts[rel])
+    except ValueError as e:
+      raise ValueError(
+          f"{rel} under {' and '.join(found[rel])}: {e}. Files at one path under several "
+          "directories are parts of one row (its seeds trained in several programs, "
+          "--first-seed); compare other rows, such as another env's, with a --compare of their "
+          "own") from None
+  per_row = collections.Counter((m.get("env", "ant"), m["objective"]) for m in merged.values())
+  for rel, evaluation in merged.items():
+    several = per_row[evaluation.get("env", "ant"), evaluation["objective"]] > 1
+    rows += verdicts(evaluation, source=rel if several else None)
   extra = [line for rel in sorted(notes) for line in notes[rel]]
   return "\n".join(rows + ([""] + extra if extra else []))
 
@@ -620,7 +648,10 @@ def main():
       parser.error(f"--paired: {e}")
     return
   if args.compare:
-    print(compare(*args.compare))
+    try:
+      print(compare(*args.compare))
+    except ValueError as e:
+      parser.error(f"--compare: {e}")
     return
   if args.plot and not args.progress:
     parser.error("--plot draws the runs of --progress: give --progress DIR ... with it")
@@ -675,7 +706,11 @@ def main():
       print(f"[paper_tables] {sweep.INTERRUPTED}", file=sys.stderr)
       raise SystemExit(cli.INTERRUPTED_STATUS)
     print(open(os.path.join(out, "summary.md")).read())
-    print(compare(out))
+    if glob.glob(os.path.join(out, "**", "*eval.json"), recursive=True):
+      print(compare(out))
+    else:  # a run stopped before its end (a time limit) has no eval.json, so no verdict yet
+      print(f"[paper_tables] {out}: no verdicts: no run there has finished (none has an "
+            "eval.json)", file=sys.stderr)
 
 
 if __name__ == "__main__":

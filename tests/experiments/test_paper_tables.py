@@ -185,6 +185,57 @@ def test_a_row_split_over_programs_trains_disjoint_seeds_and_merges_into_one_row
                         {"objective": "gail", "seeds": [1], "per_seed": {}}])
 
 
+def test_compare_names_a_folder_without_evaluations_and_files_that_are_not_one_row(
+    tmp_path, monkeypatch, capsys):
+  for env in ("ant", "humanoid"):  # committed rows of two envs, each folder with gail_eval.json
+    os.makedirs(tmp_path / env)
+    (tmp_path / env / "gail_eval.json").write_text(json.dumps(
+        _evaluation("gail", [0, 1], env=env, **{"eval/energy_distance": [1.0, 1.2]})))
+  ant, humanoid = str(tmp_path / "ant"), str(tmp_path / "humanoid")
+  assert "| humanoid | gail | -eval/energy_distance | -1.100 ± 0.100 (2) |" in (
+      paper_tables.compare(humanoid))
+  # A rerun of the row beside the first run: each of the two rows names its file.
+  os.makedirs(tmp_path / "humanoid" / "gail_rerun")
+  (tmp_path / "humanoid" / "gail_rerun" / "gail_eval.json").write_text(json.dumps(
+      _evaluation("gail", [0, 1], env="humanoid", **{"eval/energy_distance": [2.0, 2.2]})))
+  table = paper_tables.compare(humanoid)
+  assert ("| humanoid | gail (gail_eval.json) | -eval/energy_distance | -1.100 ± 0.100 (2) |"
+          in table)
+  assert ("| humanoid | gail (gail_rerun/gail_eval.json) | -eval/energy_distance | -2.100 ± 0.100 "
+          "(2) |") in table
+  assert "| ant | gail | -eval/energy_distance | -1.100 ± 0.100 (2) |" in paper_tables.compare(ant)
+  # Together, the two files at one path would be taken as one row's parts: refused, named.
+  with pytest.raises(ValueError, match=(
+      "gail_eval.json under .*ant and .*humanoid: merge: gail on humanoid is not the row of gail "
+      "on ant. Files at one path .* with a --compare of their own")):
+    paper_tables.compare(ant, humanoid)
+  os.makedirs(tmp_path / "empty")
+  with pytest.raises(ValueError, match="no eval.json under .*empty: give the --out"):
+    paper_tables.compare(ant, str(tmp_path / "empty"))
+  with pytest.raises(ValueError, match="no eval.json under .*missing \\(no such directory\\)"):
+    paper_tables.compare(str(tmp_path / "missing"))
+  for argv, message in ((["--compare", str(tmp_path / "empty")], "--compare: no eval.json under"),
+                        (["--compare", ant, humanoid], "is not the row of gail on ant")):
+    monkeypatch.setattr("sys.argv", ["paper_tables.py", *argv])
+    with pytest.raises(SystemExit):
+      paper_tables.main()
+    assert message in capsys.readouterr().err
+
+
+def test_a_table_whose_runs_stopped_before_finishing_says_it_has_no_verdicts(
+    tmp_path, monkeypatch, capsys):
+  def run_sweep(spec, out, **kwargs):  # runs stopped by a time limit: metrics, no eval.json
+    os.makedirs(os.path.join(out, "diayn"), exist_ok=True)
+    open(os.path.join(out, "summary.md"), "w").close()
+
+  monkeypatch.setattr(sweep, "run_sweep", run_sweep)
+  monkeypatch.setattr("sys.argv", ["paper_tables.py", "--objective", "diayn", "--out",
+                                   str(tmp_path)])
+  paper_tables.main()
+  assert "mimax: no verdicts: no run there has finished (none has an eval.json)" in (
+      capsys.readouterr().err)
+
+
 def test_a_single_seed_gets_its_row_without_a_test():
   run = {"objective": "gcrl", "env": "ant", "per_seed": {"eval/mi": [0.556]}}
   (row,) = [r for r in paper_tables.verdicts(run) if "eval/mi" in r]
