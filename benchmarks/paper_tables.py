@@ -222,6 +222,12 @@ def eval_options(eval_path: str) -> list[str]:
           else [f"{config}: its settings were not checked against the original's"])
 
 
+def eval_files(directory: str) -> list[str]:
+  """Every evaluation under ``directory``, in path order: a run's ``eval.json`` and a committed
+  row's ``NAME_eval.json``; ``[]`` where there is none (or no such directory)."""
+  return sorted(glob.glob(os.path.join(directory, "**", "*eval.json"), recursive=True))
+
+
 def compare(*directories: str) -> str:
   """The verdict table for every ``eval.json`` under the directories; files at the same path under
   several directories are parts of one row (``merge``). Below it, each row's PPO settings that are
@@ -234,7 +240,7 @@ def compare(*directories: str) -> str:
   found: dict[str, list[str]] = {}  # where each path's parts came from
   notes: dict[str, list[str]] = {}
   for directory in directories:
-    paths = glob.glob(os.path.join(directory, "**", "*eval.json"), recursive=True)
+    paths = eval_files(directory)
     if not paths:
       raise ValueError(f"no eval.json under {directory}" + (
           "" if os.path.isdir(directory) else " (no such directory)") + ": give the --out of "
@@ -510,7 +516,7 @@ def read_eval(path: str) -> tuple[str, dict]:
   """The ``eval.json`` at ``path``, a file or a directory holding exactly one (searched below it):
   ``(the file's path, its contents)``. ``ValueError`` naming what was found otherwise."""
   if os.path.isdir(path):
-    found = sorted(glob.glob(os.path.join(path, "**", "*eval.json"), recursive=True))
+    found = eval_files(path)
     if len(found) != 1:
       raise ValueError(f"{path}: {len(found)} eval.json files under it "
                        f"({', '.join(found) or 'none'}); give a run directory holding one, or "
@@ -706,7 +712,7 @@ def main():
       print(f"[paper_tables] {sweep.INTERRUPTED}", file=sys.stderr)
       raise SystemExit(cli.INTERRUPTED_STATUS)
     print(open(os.path.join(out, "summary.md")).read())
-    if glob.glob(os.path.join(out, "**", "*eval.json"), recursive=True):
+    if eval_files(out):
       print(compare(out))
     else:  # a run stopped before its end (a time limit) has no eval.json, so no verdict yet
       print(f"[paper_tables] {out}: no verdicts: no run there has finished (none has an "

@@ -224,7 +224,7 @@ def test_compare_names_a_folder_without_evaluations_and_files_that_are_not_one_r
 
 def test_a_table_whose_runs_stopped_before_finishing_says_it_has_no_verdicts(
     tmp_path, monkeypatch, capsys):
-  def run_sweep(spec, out, **kwargs):  # runs stopped by a time limit: metrics, no eval.json
+  def run_sweep(spec, out, **kwargs):  # its runs stopped by a time limit: no eval.json
     os.makedirs(os.path.join(out, "diayn"), exist_ok=True)
     open(os.path.join(out, "summary.md"), "w").close()
 
