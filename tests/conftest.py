@@ -15,12 +15,13 @@ import tempfile
 # programs on the CPU, mostly in LLVM's optimisation: `FAST_COMPILE` skips it, and compiles each
 # program as one function (XLA's older CPU runtime) rather than a kernel per operation. Compiles
 # then take 20-40 % less time and the few long-running learning tests run 15-35 % longer: the
-# suite's time falls by about 8 % (RESULTS, session 37). Both change how XLA compiles a program,
-# not the operations it computes, but the floats can differ in their last bits; a learning test
-# of one seed can amplify that into another outcome (session 39: GAIL on the point, on an AVX-512
-# CPU), so the learning tests found to hang on one seed (DIAYN and GAIL on the point) ask their
-# claim of the median of three seeds. A jax whose XLA lacks either flag (an unknown flag aborts
-# the process) gets `SERIAL` alone.
+# suite's time falls by about 8 % (RESULTS, session 37); those learning tests (``run_bound``, below)
+# run at XLA's default optimisation instead (session 82). The flags change how XLA compiles a
+# program, not the operations it computes, but the floats can differ in their last bits; a learning
+# test of one seed can amplify that into another outcome (session 39: GAIL on the point, on an
+# AVX-512 CPU), so the learning tests found to hang on one seed (DIAYN and GAIL on the point) ask
+# their claim of the median of three seeds. A jax whose XLA lacks either flag (an unknown flag
+# aborts the process) gets `SERIAL` alone.
 SERIAL = "--xla_cpu_multi_thread_eigen=false"
 FAST_COMPILE = "--xla_backend_optimization_level=0 --xla_cpu_use_thunk_runtime=false"
 
@@ -90,6 +91,36 @@ def rollout_fn(name: str):
     return jax.lax.scan(body, state, actions)[1]
 
   return rollout
+
+
+# Tests marked ``run_bound`` spend their time running programs, not compiling them (a few learning
+# tests that train for 100-300 k env steps). ``FAST_COMPILE`` slows such a run by a third or more,
+# so each runs in a process of its own under the run's XLA flags less ``FAST_COMPILE`` (XLA's
+# default optimisation), sharing the run's compilation cache; its output comes back where it fails.
+RUN_BOUND_CHILD = "BLX_TEST_RUN_BOUND_CHILD"
+
+
+def pytest_configure(config):
+  config.addinivalue_line("markers", "run_bound: runs in a process of its own at XLA's default "
+                          "optimisation (tests/conftest.py)")
+
+
+def pytest_pyfunc_call(pyfuncitem):
+  if not pyfuncitem.get_closest_marker("run_bound") or os.environ.get(RUN_BOUND_CHILD):
+    return None
+  flags = " ".join(os.environ.get("XLA_FLAGS", "").replace(FAST_COMPILE, "").split())
+  env = {**os.environ, RUN_BOUND_CHILD: "1", "XLA_FLAGS": flags or SERIAL}
+  child = subprocess.run(
+      [sys.executable, "-m", "pytest", "-q", "-o", "addopts=", "-p", "no:cacheprovider",
+       "-p", "no:xdist", pyfuncitem.nodeid], cwd=str(pyfuncitem.config.rootpath), env=env,
+      capture_output=True, text=True)
+  if child.returncode != 0:
+    pytest.fail(f"{pyfuncitem.nodeid}, run in a process of its own under XLA_FLAGS={flags!r}, "
+                f"exited with {child.returncode}:\n{(child.stdout + child.stderr)[-12_000:]}",
+                pytrace=False)
+  if "1 passed" not in child.stdout:
+    pytest.skip(f"in a process of its own: {child.stdout.strip().splitlines()[-1:]}")
+  return True
 
 
 @pytest.fixture
