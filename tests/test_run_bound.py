@@ -1,5 +1,5 @@
-"""The ``run_bound`` mark (tests/conftest.py): a test so marked runs in a process of its own at XLA's
-default optimisation, and what it asserts still decides the outcome."""
+"""The ``run_bound`` mark (tests/conftest.py): a test so marked runs in a process of its own at
+XLA's default optimisation, and what it asserts still decides the outcome."""
 
 from __future__ import annotations
 
@@ -39,4 +39,5 @@ def test_a_run_bound_test_that_fails_in_its_process_fails_with_its_message(pytes
   monkeypatch.delenv(conftest.RUN_BOUND_CHILD, raising=False)
   result = pytester.runpytest_subprocess("-p", "no:xdist", "-o", "addopts=")
   result.assert_outcomes(passed=1, failed=1)
-  result.stdout.fnmatch_lines(["*in a process of its own*exited with 1*", "*the child's own message*"])
+  result.stdout.fnmatch_lines(["*in a process of its own*exited with 1*",
+                               "*the child's own message*"])

@@ -58,7 +58,8 @@ def episodes_program(env, trainer, n=64):
       noise = jax.random.uniform(noise_key, (n, evader.shape[0]), minval=-1.0, maxval=1.0)
       for agent, noisy in ((evader, random_evader), (pursuer, random_pursuer)):
         action = action.at[:, agent].set(jnp.where(noisy, noise, action[:, agent]))
-      towards = obs[:, vec] / jnp.linalg.norm(obs[:, vec], axis=-1, keepdims=True)  # evader - pursuer
+      # evader - pursuer, normalised
+      towards = obs[:, vec] / jnp.linalg.norm(obs[:, vec], axis=-1, keepdims=True)
       return action.at[:, pursuer].set(jnp.where(scripted_pursuer, towards, action[:, pursuer]))
 
     record = lambda s, a, nxt: (jnp.linalg.norm(nxt.obs[:, vec], axis=-1), nxt.done)
