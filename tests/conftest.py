@@ -108,8 +108,8 @@ def pytest_configure(config):
 def pytest_pyfunc_call(pyfuncitem):
   if not pyfuncitem.get_closest_marker("run_bound") or os.environ.get(RUN_BOUND_CHILD):
     return None
-  flags = " ".join(os.environ.get("XLA_FLAGS", "").replace(FAST_COMPILE, "").split())
-  env = {**os.environ, RUN_BOUND_CHILD: "1", "XLA_FLAGS": flags or SERIAL}
+  flags = " ".join(os.environ.get("XLA_FLAGS", "").replace(FAST_COMPILE, "").split()) or SERIAL
+  env = {**os.environ, RUN_BOUND_CHILD: "1", "XLA_FLAGS": flags}
   child = subprocess.run(
       [sys.executable, "-m", "pytest", "-q", "-o", "addopts=", "-p", "no:cacheprovider",
        "-p", "no:xdist", pyfuncitem.nodeid], cwd=str(pyfuncitem.config.rootpath), env=env,
