@@ -17,6 +17,7 @@ pytest_plugins = ("pytester",)
 def test_a_run_bound_test_runs_in_a_process_of_its_own_without_the_fast_compile_flags():
   assert os.environ.get(conftest.RUN_BOUND_CHILD) == "1"
   assert conftest.FAST_COMPILE not in os.environ.get("XLA_FLAGS", "")
+  assert conftest.NO_FUSION_EMITTERS not in os.environ.get("XLA_FLAGS", "")
 
 
 def test_a_run_bound_test_that_fails_in_its_process_fails_with_its_message(pytester, monkeypatch):

@@ -286,12 +286,13 @@ def test_pro_ant_is_the_papers_procedural_ant():
   assert {f"agent1/thigh_{i}_geom" for i in range(1, 7)} <= names
   assert {f"agent1/foot_{i}_geom" for i in range(1, 7)} <= names
   assert not any(n.startswith("agent1/shin_") for n in names)
-  # upside down ends the episode, at any height
-  state = six.reset(jax.random.PRNGKey(0))
+  # upside down ends the episode, at any height (jitted: MJX op by op compiles each op on its own)
+  reset, step = jax.jit(six.reset), jax.jit(six.step)
+  state = reset(jax.random.PRNGKey(0))
   qpos = state.data.qpos.at[3:7].set(jnp.array([0.0, 1.0, 0.0, 0.0]))
-  flipped = six.step(state.replace(data=state.data.replace(qpos=qpos)), jnp.zeros(six.action_size))
+  flipped = step(state.replace(data=state.data.replace(qpos=qpos)), jnp.zeros(six.action_size))
   assert 0.2 < float(flipped.data.qpos[2]) < 1.0 and float(flipped.done) == 1.0
-  assert float(six.step(state, jnp.zeros(six.action_size)).done) == 0.0
+  assert float(step(state, jnp.zeros(six.action_size)).done) == 0.0
   stronger = envs.create("pro_ant_run", num_legs=6, edits={
       "components.agent1.component_params.strength": 350.0}).unwrapped
   np.testing.assert_allclose(stronger.mj_model.actuator_gear[:, 0], 350.0)

@@ -85,11 +85,12 @@ def test_direction_rewards_moving_against_the_opponents_velocity():
            b=dict(reward_agents=("b",), reward_names=("a__b/dist", "a__b/b_at_a"))),
       a_at_b=dict(reward_type="direction"), b_at_a=dict(reward_type="direction", of="b"))
   env = envs.create(desc=desc, episode_length=None)
-  state = env.reset(jax.random.PRNGKey(0))
+  step = jax.jit(env.step)
+  state = jax.jit(env.reset)(jax.random.PRNGKey(0))
   for vb, expect_a, expect_b in ((-2.0, 1.0, 2.0), (2.0, 0.0, 0.0)):
     qvel = jnp.asarray([1.0, 0.0, vb, 0.0])
     moving = state.replace(data=state.data.replace(qvel=qvel))
-    m = env.step(moving, jnp.zeros(env.action_size)).metrics
+    m = step(moving, jnp.zeros(env.action_size)).metrics
     assert float(m["reward/a/a__b/a_at_b"]) == pytest.approx(expect_a, abs=1e-5), vb
     assert float(m["reward/b/a__b/b_at_a"]) == pytest.approx(expect_b, abs=1e-5), vb
 
@@ -97,7 +98,7 @@ def test_direction_rewards_moving_against_the_opponents_velocity():
 def test_a_single_agent_scene_is_unchanged():
   env = envs.create("point_goal")
   assert env.agent_names == () and env.num_agents == 1 and env.agent_action_indices == {}
-  state = env.step(env.reset(jax.random.PRNGKey(0)), jnp.zeros(env.action_size))
+  state = jax.jit(env.step)(jax.jit(env.reset)(jax.random.PRNGKey(0)), jnp.zeros(env.action_size))
   assert state.reward.shape == ()
   assert "reward/agent1/goal" in state.metrics
 
@@ -179,7 +180,7 @@ def test_sumo_pays_the_win_bonus_and_ends_when_an_agent_leaves_the_ring():
   env = envs.create("sumo", main_agent="point", other_agent="point", ring_size=2.5,
                     episode_length=None)
   idx = env.agent_action_indices
-  state = env.reset(jax.random.PRNGKey(0))
+  state = jax.jit(env.reset)(jax.random.PRNGKey(0))
   step = jax.jit(env.step)
   # agent1 starts at (-2, 0) and walks out along -x; agent0 stands still.
   action = jnp.zeros(env.action_size).at[idx["agent1"][0]].set(-1.0)

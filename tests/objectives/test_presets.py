@@ -155,18 +155,24 @@ def test_every_preset_trains_on_point_without_nan(name):
                        jax.tree.leaves(trained["disc"]["params"])))
 
 
-def _skill_accuracy(env, obj, result, *, episodes=8, seed_index=0):
-  """Fraction of the second half of fresh deterministic episodes whose state the discriminator
-  assigns to the skill that produced it, for the run's seed at ``seed_index``."""
-  params = jax.tree.map(lambda x: x[seed_index], result.params)
+def _skill_accuracy_fn(env, obj, policy, *, episodes=8):
+  """A jitted ``params -> (accuracy, places [K, 2])`` for one seed's ``params``: the fraction of the
+  second half of fresh deterministic episodes whose state the discriminator assigns to the skill
+  that produced it, and each skill's mean place there. One program for every seed (run op by op,
+  each call compiled its rollout and some 700 single operations again)."""
   k = obj.latent_size
-  states = metrics.rollout(env, result.policy, params, jnp.eye(k), jax.random.PRNGKey(123),
-                           episodes_per_latent=episodes, deterministic=True)
-  late = states[:, :, states.shape[2] // 2:]  # the second half of the point's 50-step episodes
   infer = obj.spec.infer_latent
-  predicted = jax.vmap(jax.vmap(jax.vmap(lambda o: infer(params.objective, o))))(late)
-  accuracy = float((predicted.argmax(-1) == jnp.arange(k)[:, None, None]).mean())
-  return accuracy, np.asarray(late[..., :2].mean((1, 2)))
+
+  @jax.jit
+  def accuracy(params):
+    states = metrics.rollout(env, policy, params, jnp.eye(k), jax.random.PRNGKey(123),
+                             episodes_per_latent=episodes, deterministic=True)
+    late = states[:, :, states.shape[2] // 2:]  # the second half of the point's 50-step episodes
+    predicted = jax.vmap(jax.vmap(jax.vmap(lambda o: infer(params.objective, o))))(late)
+    return ((predicted.argmax(-1) == jnp.arange(k)[:, None, None]).mean(),
+            late[..., :2].mean((1, 2)))
+
+  return lambda params: tuple(np.asarray(x) for x in accuracy(params))
 
 
 @pytest.mark.run_bound
@@ -179,14 +185,11 @@ def test_diayn_learns_four_distinguishable_skills_on_point():
   obj = objectives.diayn(num_skills=4, obs_indices="pos_xy", env=env, spectral_norm=True)
   config = training.ppo_defaults("point", num_timesteps=150_000, entropy_cost=1e-2)
   trainer = training.make_trainer(env, obj, config)
-  untrained = trainer.init(jax.random.PRNGKey(0))
-  untrained = training.TrainResult(
-      params=jax.tree.map(lambda x: x[None], training.policy_params(untrained)),
-      metrics=[], policy=trainer.policy, state=None)
-  before, _ = _skill_accuracy(env, obj, untrained)
+  skill_accuracy = _skill_accuracy_fn(env, obj, trainer.policy)
+  before, _ = skill_accuracy(training.policy_params(jax.jit(trainer.init)(jax.random.PRNGKey(0))))
   seeds = (0, 1, 2)  # vmapped in one program: on a CPU, about the cost of one
   result = training.train(env, obj, config, seeds=seeds, progress=False)
-  after = [_skill_accuracy(env, obj, result, seed_index=i) for i in range(len(seeds))]
+  after = [skill_accuracy(jax.tree.map(lambda x: x[i], result.params)) for i in range(len(seeds))]
   # Baseline: an untrained policy and discriminator classify at about chance (1/4); trained skills
   # end in different places, which the discriminator tells apart. One seed's accuracy depends on
   # the CPU's floating-point rounding: where this test was written seed 0 alone gave 0.86 to 1.0;
@@ -196,7 +199,7 @@ def test_diayn_learns_four_distinguishable_skills_on_point():
   # did at XLA's default optimisation (session 82, ``run_bound``). So the test asks it of the
   # median seed: 0.7 means at least three of the four skills are told apart.
   assert before < 0.6, before
-  accuracies = [a for a, _ in after]
+  accuracies = [float(a) for a, _ in after]
   assert sorted(accuracies)[1] > 0.7, after
   for _, places in after:  # every seed's skills end in visibly different places
     distances = np.linalg.norm(places[:, None] - places[None], axis=-1)
