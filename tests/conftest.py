@@ -16,8 +16,9 @@ import tempfile
 # - `NO_FUSION_EMITTERS`: XLA's CPU backend emits each fusion through its newer MLIR emitters by
 #   default; with them off it uses its older loop emitters, which compile a training program of the
 #   point in about 40 % less time and a 1000-step rollout of sumo in a third of it, and run it no
-#   slower (RESULTS, session 83). The run-bound tests (below) run without it, at XLA's defaults: under
-#   it GAIL's median seed on the point ended at an energy distance of 3.99, past its test's 3.35.
+#   slower (RESULTS, session 83). The run-bound tests (below) run without it, at XLA's defaults:
+#   under it GAIL's median seed on the point ended at an energy distance of 3.99, past its test's
+#   3.35.
 # - `FAST_COMPILE`: LLVM's optimisation off. Compiles take less time and the few long-running
 #   learning tests run 15-35 % longer (RESULTS, session 37), so those (``run_bound``, below) run at
 #   XLA's default optimisation (session 82), as does the env rollout of ``rollout_fn`` (session 83).
@@ -122,17 +123,23 @@ def rollout_fn(name: str):
 # tests that train for 100-300 k env steps). ``FAST_COMPILE`` slows such a run by a third or more,
 # so each runs in a process of its own under the run's XLA flags less ``FAST_COMPILE`` and
 # ``NO_FUSION_EMITTERS`` (XLA's defaults, under which their verdicts were set), sharing the run's
-# compilation cache; its output comes back where it fails.
+# compilation cache; its output comes back where it fails. Tests marked ``xla_defaults`` run the
+# same way for another reason: they claim bitwise-equal results from differently built programs
+# (a chunk whole and in segments), which holds under XLA's defaults, as users run, and not always
+# under ``NO_FUSION_EMITTERS`` (last bits, session 83).
 RUN_BOUND_CHILD = "BLX_TEST_RUN_BOUND_CHILD"
 
 
 def pytest_configure(config):
+  config.addinivalue_line("markers", "xla_defaults: runs in a process of its own at XLA's defaults "
+                          "(tests/conftest.py)")
   config.addinivalue_line("markers", "run_bound: runs in a process of its own at XLA's default "
                           "optimisation (tests/conftest.py)")
 
 
 def pytest_pyfunc_call(pyfuncitem):
-  if not pyfuncitem.get_closest_marker("run_bound") or os.environ.get(RUN_BOUND_CHILD):
+  marked = any(pyfuncitem.get_closest_marker(m) for m in ("run_bound", "xla_defaults"))
+  if not marked or os.environ.get(RUN_BOUND_CHILD):
     return None
   flags = os.environ.get("XLA_FLAGS", "").replace(FAST_COMPILE, "").replace(NO_FUSION_EMITTERS, "")
   flags = " ".join(flags.split()) or SERIAL

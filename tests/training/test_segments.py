@@ -33,6 +33,7 @@ def _same_run(a, b):
         {k: v for k, v in row_b.items() if k not in CLOCK})
 
 
+@pytest.mark.xla_defaults  # bitwise the same run: under XLA's defaults (tests/conftest.py)
 def test_a_chunk_in_segments_is_the_same_run_and_resumes_from_within_a_chunk(tmp_path, monkeypatch,
                                                                             capsys):
   monkeypatch.delenv("BLX_CHECKPOINT_SEGMENTS", raising=False)   # "none" below means none
