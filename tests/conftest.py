@@ -133,8 +133,8 @@ RUN_BOUND_CHILD = "BLX_TEST_RUN_BOUND_CHILD"
 def pytest_configure(config):
   config.addinivalue_line("markers", "xla_defaults: runs in a process of its own at XLA's defaults "
                           "(tests/conftest.py)")
-  config.addinivalue_line("markers", "run_bound: runs in a process of its own at XLA's default "
-                          "optimisation (tests/conftest.py)")
+  config.addinivalue_line("markers", "run_bound: runs in a process of its own at XLA's defaults, "
+                          "where it runs faster (tests/conftest.py)")
 
 
 def pytest_pyfunc_call(pyfuncitem):

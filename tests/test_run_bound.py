@@ -1,5 +1,5 @@
-"""The ``run_bound`` mark (tests/conftest.py): a test so marked runs in a process of its own at
-XLA's default optimisation, and what it asserts still decides the outcome."""
+"""The ``run_bound`` and ``xla_defaults`` marks (tests/conftest.py): a test so marked runs in a
+process of its own at XLA's defaults, and what it asserts still decides the outcome."""
 
 from __future__ import annotations
 
@@ -13,8 +13,9 @@ from tests import conftest
 pytest_plugins = ("pytester",)
 
 
-@pytest.mark.run_bound
-def test_a_run_bound_test_runs_in_a_process_of_its_own_without_the_fast_compile_flags():
+@pytest.mark.parametrize("mark", [pytest.param("run_bound", marks=pytest.mark.run_bound),
+                                  pytest.param("xla_defaults", marks=pytest.mark.xla_defaults)])
+def test_a_marked_test_runs_in_a_process_of_its_own_without_the_suites_compile_flags(mark):
   assert os.environ.get(conftest.RUN_BOUND_CHILD) == "1"
   assert conftest.FAST_COMPILE not in os.environ.get("XLA_FLAGS", "")
   assert conftest.NO_FUSION_EMITTERS not in os.environ.get("XLA_FLAGS", "")
