@@ -5,7 +5,7 @@
                                       [--out sweeps/paper_ENV] [--env-edits JSON] [--config JSON]
                                       [--options JSON] [--steps N] [--eval-metrics]
                                       [--eval-protocol quick|final]
-    python benchmarks/paper_tables.py --compare DIR [DIR ...]   # every eval.json against the paper
+    python benchmarks/paper_tables.py --compare DIR [DIR ...] [--plot PNG]  # every eval.json
     python benchmarks/paper_tables.py --progress DIR [DIR ...] [--plot PNG]  # rows under way
     python benchmarks/paper_tables.py --paired A B   # two final evaluations of a row, by seed
 
@@ -19,6 +19,8 @@ the paper's protocol: ``--compare``, ``--progress`` and ``--plot`` name a run's 
 are not the original's (``blx.training.config.off_row``, from its provenance's record of every
 setting it trained with, else its ``config.json``: ``trained_off_row``), but for how its return
 episodes act (``eval_actions``), which the paper's metrics do not depend on.
+``--compare DIR ... --plot PNG`` also draws the rows' final evaluations beside the paper's values
+(``draw_compare``), ``--progress DIR ... --plot PNG`` their curves (``draw_progress``).
 ``--paired A B`` compares two final evaluations of one row (``eval.json`` files or run directories)
 seed by seed, e.g. an option's arm against the paper's row trained on the same seed numbers.
 ``--first-seed N`` trains seeds N .. N + seeds - 1, so that one row's seeds can be split over
@@ -134,27 +136,42 @@ def mean_std(values: list[float]) -> tuple[float, float]:
 OTHER_GOALS = " (not the paper's goals: blx's before session 41)"
 
 
+BLX_WINDOW, BRAXLINES_WINDOW = "blx's window", "Braxlines' window"
+
+
+def scored(eval_json: dict) -> list[tuple[str, str, str, float, float, list[float]]]:
+  """The metrics of the paper's row that ``eval_json`` holds per seed, in the table's order: each in
+  blx's fixed window, then (where the run logged it) in the window Braxlines' rollout scores
+  (``metrics.braxlines_window``), against the same paper value. Each is ``(the paper's key, e.g.
+  "-eval/lgr"; the evaluation's key, e.g. "eval/lgr_braxlines"; the window; the paper's mean; its
+  std; blx's per-seed values signed as the paper's key, so that larger is better)``."""
+  name, env = eval_json["objective"], eval_json.get("env", "ant")
+  out = []
+  for window, suffix in ((BLX_WINDOW, ""), (BRAXLINES_WINDOW, "_braxlines")):
+    for key, (mean, std) in PAPER.get(env, {}).get(name, {}).items():
+      sign = -1.0 if key.startswith("-") else 1.0
+      metric = key.lstrip("-") + suffix
+      values = [sign * v for v in eval_json["per_seed"].get(metric, [])]
+      if values:
+        out.append((key, metric, window, mean, std, values))
+  return out
+
+
+def papers_goals(eval_json: dict) -> bool:
+  """Whether the evaluation's LGR was taken on the paper's goals (its ``evaluated_on`` says so)."""
+  return (eval_json.get("evaluated_on") or {}).get("lgr_goals") == "braxlines"
+
+
 def verdicts(eval_json: dict, source: str | None = None) -> list[str]:
   """Markdown rows: metric, blx mean ± std (n), paper, Welch t and p, and whether blx reaches the
-  paper's mean - std. An LGR evaluated on other goals than the paper's (``evaluated_on``'s
-  ``lgr_goals`` not "braxlines") says so (``OTHER_GOALS``). ``source``, where given, names the
-  evaluation's file beside its algorithm (``compare`` does where one table holds several
-  evaluations of one row)."""
+  paper's mean - std, for each of ``scored``'s metrics. An LGR evaluated on other goals than the
+  paper's (``evaluated_on``'s ``lgr_goals`` not "braxlines") says so (``OTHER_GOALS``).
+  ``source``, where given, names the evaluation's file beside its algorithm (``compare`` does where
+  one table holds several evaluations of one row)."""
   name, env = eval_json["objective"], eval_json.get("env", "ant")
   algorithm = name if source is None else f"{name} ({source})"
-  papers_goals = (eval_json.get("evaluated_on") or {}).get("lgr_goals") == "braxlines"
   lines = []
-  # Each metric in blx's fixed window, then (where the run logged it) in the window Braxlines'
-  # rollout scores (``metrics.braxlines_window``), against the same paper value.
-  rows = [(key, key.lstrip("-"), mean, std)
-          for key, (mean, std) in PAPER.get(env, {}).get(name, {}).items()]
-  rows += [(f"{key} (Braxlines' window)", f"{metric}_braxlines", mean, std)
-           for key, metric, mean, std in list(rows)]
-  for key, metric, mean, std in rows:
-    sign = -1.0 if key.startswith("-") else 1.0
-    values = [sign * v for v in eval_json["per_seed"].get(metric, [])]
-    if not values:
-      continue
+  for key, metric, window, mean, std, values in scored(eval_json):
     mu, sd = mean_std(values)
     ok = "yes" if mu >= mean - std else "**no**"
     if len(values) > 1:
@@ -162,7 +179,9 @@ def verdicts(eval_json: dict, source: str | None = None) -> list[str]:
       test = f"{t:+.2f} | {p:.3f}"
     else:
       test = "n/a (1 seed) | n/a"
-    if metric == "eval/lgr" and not papers_goals:
+    if window == BRAXLINES_WINDOW:
+      key += f" ({window})"
+    if metric == "eval/lgr" and not papers_goals(eval_json):
       key += OTHER_GOALS
     lines.append(f"| {env} | {algorithm} | {key} | {mu:.3f} ± {sd:.3f} ({len(values)}) "
                  f"| {mean:.3f} ± {std:.3f} | {test} | {ok} |")
@@ -228,17 +247,25 @@ def eval_files(directory: str) -> list[str]:
   return sorted(glob.glob(os.path.join(directory, "**", "*eval.json"), recursive=True))
 
 
-def compare(*directories: str) -> str:
-  """The verdict table for every ``eval.json`` under the directories; files at the same path under
-  several directories are parts of one row (``merge``). Below it, each row's PPO settings that are
-  not the original's (``options_line``, from the ``config.json`` beside its ``eval.json``). Where
-  the table holds several evaluations of one env's row (a rerun beside the first run, say), each of
-  their rows names its file. Raises ValueError for a directory that holds no ``eval.json``, and for
-  files at one path that are not parts of one row, naming them."""
-  rows = list(VERDICT_HEADER)
+def eval_off_row(eval_path: str) -> dict[str, tuple]:
+  """``trained_off_row`` of the run of the ``eval.json`` at ``eval_path``, from the ``config.json``
+  beside it; ``{}`` where there is none or it cannot be read (``eval_options`` says which)."""
+  prefix = eval_path[:-len("eval.json")]
+  config = read_config(prefix) if os.path.exists(prefix + "config.json") else None
+  return trained_off_row(prefix.rstrip("_/" + os.sep), config) if isinstance(config, dict) else {}
+
+
+def compared(*directories: str) -> tuple[list[tuple[str | None, dict, dict]], list[str]]:
+  """Every ``eval.json`` under the directories, as ``compare`` tables them: ``([(source, the
+  evaluation, its settings not the original's)], notes)``, one evaluation per path (files at the
+  same path under several directories merged: ``merge``), in path order; ``source`` names its file
+  where several evaluations of one env's row are among them, else None; the settings as
+  ``eval_off_row`` gives them (``{}``: the original's); ``notes``, a line per run with such
+  settings (``options_line``). Raises ValueError as ``compare`` says."""
   parts: dict[str, list[dict]] = {}
   found: dict[str, list[str]] = {}  # where each path's parts came from
   notes: dict[str, list[str]] = {}
+  settings: dict[str, dict] = {}
   for directory in directories:
     paths = eval_files(directory)
     if not paths:
@@ -252,6 +279,7 @@ def compare(*directories: str) -> str:
       found.setdefault(rel, []).append(directory)
       seen = notes.setdefault(rel, [])
       seen += [line for line in eval_options(path) if line not in seen]
+      settings.setdefault(rel, {}).update(eval_off_row(path))
   merged = {}
   for rel in sorted(parts):
     try:
@@ -263,11 +291,130 @@ def compare(*directories: str) -> str:
           "--first-seed); compare other rows, such as another env's, with a --compare of their "
           "own") from None
   per_row = collections.Counter((m.get("env", "ant"), m["objective"]) for m in merged.values())
-  for rel, evaluation in merged.items():
-    several = per_row[evaluation.get("env", "ant"), evaluation["objective"]] > 1
-    rows += verdicts(evaluation, source=rel if several else None)
-  extra = [line for rel in sorted(notes) for line in notes[rel]]
-  return "\n".join(rows + ([""] + extra if extra else []))
+  rows = [(rel if per_row[m.get("env", "ant"), m["objective"]] > 1 else None, m, settings[rel])
+          for rel, m in merged.items()]
+  return rows, [line for rel in sorted(notes) for line in notes[rel]]
+
+
+def compare(*directories: str) -> str:
+  """The verdict table for every ``eval.json`` under the directories; files at the same path under
+  several directories are parts of one row (``merge``). Below it, each row's PPO settings that are
+  not the original's (``options_line``, from the ``config.json`` beside its ``eval.json``). Where
+  the table holds several evaluations of one env's row (a rerun beside the first run, say), each of
+  their rows names its file. Raises ValueError for a directory that holds no ``eval.json``, and for
+  files at one path that are not parts of one row, naming them."""
+  evaluations, notes = compared(*directories)
+  rows = list(VERDICT_HEADER)
+  for source, evaluation, _ in evaluations:
+    rows += verdicts(evaluation, source=source)
+  return "\n".join(rows + ([""] + notes if notes else []))
+
+
+# The order of ``draw_compare``'s panels: the paper's metrics, MI-max's then D-min's.
+PANEL_ORDER = ("eval/mi", "eval/entropy", "eval/lgr", "eval/energy_distance")
+
+
+def _verdict(values: list[float], mean: float, std: float, alpha: float = 0.05) -> str:
+  """"meets" or "short" (blx's mean against the paper's mean - std, larger better), then by Welch's
+  test against the paper's row at level ``alpha`` whether blx is better, level or worse, with p."""
+  word = "meets" if mean_std(values)[0] >= mean - std else "short"
+  if len(values) < 2:
+    return f"{word} (1 seed, no test)"
+  t, _, p = welch(values, mean, std)
+  relation = "level with" if p >= alpha else "better than" if t > 0 else "worse than"
+  return f"{word}; {relation} the paper ({'p < 0.001' if p < 0.001 else f'p {p:.3f}'})"
+
+
+def draw_compare(path: str, *directories: str) -> dict[str, list[str]]:
+  """``path``, a PNG: every row that ``compare`` tables, its final evaluation beside the paper's
+  value, a panel per metric of the paper's tables (MI, H(s), LGR, energy distance; each in its own
+  units, LGR and energy distance as distances, lower better): the paper's mean ± std, blx's mean ±
+  std over seeds and each seed, in blx's window and, where the run logged it, in Braxlines'. Each
+  row's label names its algorithm (and file, as ``compare`` does), its settings that are not the
+  original's (an option's result, ``eval_off_row``), an LGR on other goals than the paper's, and
+  the verdict in each window, as ``verdicts`` has it. Returns each panel's labels,
+  top to bottom, by metric. Raises ValueError where no evaluation holds a metric of the paper's
+  row."""
+  import matplotlib
+  matplotlib.use("Agg")
+  import matplotlib.pyplot as plt
+  import ablations  # its labels; it imports this module, so not at the top
+  evaluations, _ = compared(*directories)
+  envs = sorted({e.get("env", "ant") for _, e, _ in evaluations})
+  panels: dict[str, list[tuple[str, float, float, dict[str, list[float]]]]] = {}
+  for source, evaluation, changed in evaluations:
+    by_metric: dict[str, dict] = {}
+    for key, metric, window, mean, std, values in scored(evaluation):
+      base = key.lstrip("-")
+      sign = -1.0 if key.startswith("-") else 1.0
+      entry = by_metric.setdefault(base, {"mean": sign * mean, "std": std, "windows": {},
+                                          "verdicts": []})
+      entry["windows"][window] = [sign * v for v in values]  # in the metric's own units
+      entry["verdicts"].append((window, _verdict(values, mean, std)))
+    for base, entry in by_metric.items():
+      name = evaluation["objective"]
+      if len(envs) > 1:
+        name = f"{evaluation.get('env', 'ant')} {name}"
+      lines = [name + (f" ({source})" if source else "")]
+      if changed:  # an option's result, not the paper's row
+        lines.append("option " + ", ".join(f"{k} {v}" for k, (v, _) in changed.items()) +
+                     ", not the original's")
+      if base == "eval/lgr" and not papers_goals(evaluation):
+        lines.append("on blx's old goals, not the paper's")
+      if len(entry["verdicts"]) == 1:
+        lines.append(entry["verdicts"][0][1])
+      else:
+        lines += [f"{window}: {verdict}" for window, verdict in entry["verdicts"]]
+      panels.setdefault(base, []).append(("\n".join(lines), entry["mean"], entry["std"],
+                                          entry["windows"]))
+  order = [m for m in PANEL_ORDER if m in panels]
+  if not order:
+    raise ValueError(f"nothing to draw under {', '.join(directories)}: no eval.json there holds "
+                     "a metric of a row of the paper's tables")
+  columns = 1 if len(order) == 1 else 2
+  grid = [order[i:i + columns] for i in range(0, len(order), columns)]
+  heights = [max(len(panels[m]) for m in line) for line in grid]
+  fig, axes = plt.subplots(len(grid), columns, figsize=(7.5 * columns, 0.9 * sum(heights) + 1.6),
+                           squeeze=False, layout="constrained",
+                           gridspec_kw={"height_ratios": heights})
+  styles = {BLX_WINDOW: dict(fmt="o", color="C0", offset=0.0),
+            BRAXLINES_WINDOW: dict(fmt="D", color="C2", offset=-0.25, mfc="white")}
+  drawn, legend = {}, {}
+  for line, row_axes in zip(grid, axes):
+    for metric, ax in zip(line, row_axes):
+      entries = panels[metric]
+      for i, (label, mean, std, windows) in enumerate(entries):
+        y = -i
+        ax.errorbar([mean], [y + 0.25], xerr=[std], fmt="s", color="C3", mfc="white", capsize=3,
+                    label="the paper (mean ± std, 10 seeds)" if i == 0 else None)
+        for window, values in windows.items():
+          style = styles[window]
+          mu, sd = mean_std(values)
+          yy = y + style["offset"]
+          ax.plot(values, [yy - 0.1] * len(values), ".", color=style["color"], alpha=0.45,
+                  ms=5, label="blx, each seed (in its window's colour)")
+          ax.errorbar([mu], [yy], xerr=[sd], fmt=style["fmt"], color=style["color"], capsize=3,
+                      mfc=style.get("mfc", style["color"]),
+                      label=f"blx, {window} (mean ± std over seeds)")
+      ax.set_yticks([-i for i in range(len(entries))], [e[0] for e in entries], fontsize=7.5)
+      ax.set_ylim(-len(entries) + 0.4, 0.7)
+      ax.set_xlabel(ablations.LABELS.get(metric, metric))
+      ax.grid(axis="x", alpha=0.3)
+      drawn[metric] = [e[0] for e in entries]
+      handles, labels = ax.get_legend_handles_labels()
+      for label, handle in zip(labels, handles):
+        legend.setdefault(label, handle)
+    for ax in row_axes[len(line):]:
+      ax.axis("off")
+  fig.legend(legend.values(), legend.keys(), loc="outside lower center", ncols=len(legend),
+             fontsize=8)
+  fig.suptitle(textwrap.fill(
+      f"{', '.join(envs)}: blx's final evaluations against the paper's Tables 3 and 4 "
+      "(\"meets\": blx's mean at least the paper's mean - std, in the better direction; p: "
+      "Welch's t-test against the paper's row)", 120), fontsize=10)
+  fig.savefig(path, dpi=110)
+  plt.close(fig)
+  return drawn
 
 
 def logged(*directories: str) -> list[tuple[str, dict | str, list[dict], bool]]:
@@ -641,8 +788,8 @@ def main():
                       help="only print where the runs under DIR stand during training (their "
                            "metrics.csv, logged with --eval-metrics) against the paper")
   parser.add_argument("--plot", default=None, metavar="PNG",
-                      help="with --progress: also draw each run's curves beside the paper's "
-                           "final values into PNG")
+                      help="with --compare: also draw each row's final evaluation beside the "
+                           "paper's value into PNG; with --progress: each run's curves")
   args = parser.parse_args()
   if sum(bool(x) for x in (args.compare, args.progress, args.paired)) > 1:
     parser.error("--compare, --progress and --paired: give one (the final verdicts, the rows' "
@@ -656,11 +803,15 @@ def main():
   if args.compare:
     try:
       print(compare(*args.compare))
+      if args.plot:
+        draw_compare(args.plot, *args.compare)
+        print(f"wrote {args.plot}")
     except ValueError as e:
       parser.error(f"--compare: {e}")
     return
   if args.plot and not args.progress:
-    parser.error("--plot draws the runs of --progress: give --progress DIR ... with it")
+    parser.error("--plot draws the rows of --compare (their final evaluations) or of --progress "
+                 "(their curves): give one of them with it")
   if args.progress:
     try:
       print(progress(*args.progress))

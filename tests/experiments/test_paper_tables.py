@@ -222,6 +222,65 @@ def test_compare_names_a_folder_without_evaluations_and_files_that_are_not_one_r
     assert message in capsys.readouterr().err
 
 
+def test_compare_draws_each_rows_final_evaluation_with_its_verdict_in_each_window(
+    tmp_path, monkeypatch, capsys):
+  # Humanoid rows: GAIL in both windows (Braxlines' meets the paper's 1.790 +- 0.413, blx's does
+  # not), DIAYN's LGR on blx's old goals, and a DIAYN rerun beside the first run.
+  rows = tmp_path / "humanoid"
+  os.makedirs(rows / "diayn_rerun")
+  (rows / "gail_eval.json").write_text(json.dumps(_evaluation("gail", range(3), env="humanoid", **{
+      "eval/energy_distance": [2.4, 2.5, 2.6], "eval/energy_distance_braxlines": [1.6, 1.7, 1.8]})))
+  diayn = {"eval/mi": [0.9, 1.0, 1.1], "eval/entropy": [6.0, 6.1, 6.2], "eval/lgr": [2.2, 2.3, 2.4]}
+  (rows / "diayn_eval.json").write_text(json.dumps(
+      _evaluation("diayn", range(3), goals=None, env="humanoid", **diayn)))
+  (rows / "diayn_rerun" / "diayn_eval.json").write_text(json.dumps(_evaluation(
+      "diayn", range(3), env="humanoid", **{"eval/mi": [0.3, 0.4, 0.5]})))
+  # the rerun clipped PPO's gradient: an option's result, named as one
+  (rows / "diayn_rerun" / "diayn_config.json").write_text(json.dumps({
+      "format_version": runs.FORMAT_VERSION, "env": "humanoid", "objective": "diayn",
+      "objective_options": {}, "ppo": {"max_grad_norm": 5, "num_evals": 40}, "seeds": [0, 1, 2]}))
+  png = tmp_path / "final.png"
+  drawn = paper_tables.draw_compare(str(png), str(rows))
+  assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+  # a panel per metric, in the tables' order; a row in each panel that holds the metric
+  assert list(drawn) == ["eval/mi", "eval/entropy", "eval/lgr", "eval/energy_distance"]
+  mi_first, mi_rerun = drawn["eval/mi"]
+  t_first = paper_tables.welch([0.9, 1.0, 1.1], 0.927, 0.128)
+  assert mi_first == (f"diayn (diayn_eval.json)\nmeets; level with the paper "
+                      f"(p {t_first[2]:.3f})")
+  assert mi_rerun.split("\n")[:2] == ["diayn (diayn_rerun/diayn_eval.json)",
+                                      "option max_grad_norm 5, not the original's"]
+  assert mi_rerun.split("\n")[2].startswith("short; worse than the paper (p ")
+  assert all("option" not in label for label in [mi_first, *drawn["eval/energy_distance"]])
+  assert [len(drawn[k]) for k in ("eval/entropy", "eval/lgr")] == [1, 1]  # the rerun has MI only
+  (lgr,) = drawn["eval/lgr"]  # -2.3 >= -2.313 - 0.266: meets, on other goals than the paper's
+  assert lgr.split("\n")[1] == "on blx's old goals, not the paper's"
+  assert lgr.split("\n")[2].startswith("meets; level with the paper (p ")
+  (gail,) = drawn["eval/energy_distance"]  # lower is better: 2.5 is worse, 1.7 level
+  lines = gail.split("\n")
+  assert lines[0] == "gail"
+  assert lines[1].startswith("blx's window: short; worse than the paper (p ")
+  assert lines[2].startswith("Braxlines' window: meets; level with the paper (p ")
+  # the verdicts are the table's
+  table = paper_tables.compare(str(rows))
+  assert "| humanoid | gail | -eval/energy_distance | -2.500 ± 0.082 (3) |" in table
+  assert table.count("| **no** |") == 2  # gail in blx's window, the rerun's MI
+  # from the command line, beside the table; --plot alone is refused, naming what it draws
+  monkeypatch.setattr("sys.argv", ["paper_tables.py", "--compare", str(rows), "--plot", str(png)])
+  paper_tables.main()
+  assert f"wrote {png}" in capsys.readouterr().out
+  monkeypatch.setattr("sys.argv", ["paper_tables.py", "--plot", str(png)])
+  with pytest.raises(SystemExit):
+    paper_tables.main()
+  assert "--plot draws the rows of --compare" in capsys.readouterr().err
+  # nothing of the paper's tables: refused, named
+  os.makedirs(tmp_path / "push")
+  (tmp_path / "push" / "eval.json").write_text(json.dumps(_evaluation(
+      "task", range(2), env="ant_push", **{"eval/episode_score": [1.0, 2.0]})))
+  with pytest.raises(ValueError, match="nothing to draw under .*push: no eval.json there holds"):
+    paper_tables.draw_compare(str(png), str(tmp_path / "push"))
+
+
 def test_a_table_whose_runs_stopped_before_finishing_says_it_has_no_verdicts(
     tmp_path, monkeypatch, capsys):
   def run_sweep(spec, out, **kwargs):  # its runs stopped by a time limit: no eval.json
