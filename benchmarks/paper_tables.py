@@ -19,8 +19,10 @@ the paper's protocol: ``--compare``, ``--progress`` and ``--plot`` name a run's 
 are not the original's (``blx.training.config.off_row``, from its provenance's record of every
 setting it trained with, else its ``config.json``: ``trained_off_row``), but for how its return
 episodes act (``eval_actions``), which the paper's metrics do not depend on.
-``--compare DIR ... --plot PNG`` also draws the rows' final evaluations beside the paper's values
-(``draw_compare``), ``--progress DIR ... --plot PNG`` their curves (``draw_progress``).
+Below its verdicts ``--compare`` splits each MI-max row's MI gap into its H(s) and H(s|z) parts
+(``mi_parts``). ``--compare DIR ... --plot PNG`` also draws the rows' final evaluations beside the
+paper's values (``draw_compare``), ``--progress DIR ... --plot PNG`` their curves
+(``draw_progress``).
 ``--paired A B`` compares two final evaluations of one row (``eval.json`` files or run directories)
 seed by seed, e.g. an option's arm against the paper's row trained on the same seed numbers.
 ``--first-seed N`` trains seeds N .. N + seeds - 1, so that one row's seeds can be split over
@@ -296,17 +298,53 @@ def compared(*directories: str) -> tuple[list[tuple[str | None, dict, dict]], li
   return rows, [line for rel in sorted(notes) for line in notes[rel]]
 
 
+def mi_parts(eval_json: dict) -> tuple[float, float, float, float, float, float] | None:
+  """Where an MI-max row's MI departs from the paper's, split by MI = H(s) - H(s|z): ``(blx's MI,
+  the paper's, blx's H(s), the paper's, blx's mean_z H(s|z), the paper's)``, each blx value a mean
+  over seeds (blx's window). The paper reports no H(s|z); since each seed's MI is its H(s) less its
+  H(s|z), the paper's mean H(s|z) is its mean H(s) less its mean MI, exactly. So the MI's shortfall
+  is the part of H(s) (the states the skills cover together) less the part of H(s|z) (how widely
+  each skill's states spread). None for a row without the three metrics (D-min; an evaluation
+  from before blx recorded H(s|z))."""
+  row = PAPER.get(eval_json.get("env", "ant"), {}).get(eval_json["objective"], {})
+  per_seed = eval_json["per_seed"]
+  keys = ("eval/mi", "eval/entropy", "eval/conditional_entropy")
+  if not {"eval/mi", "eval/entropy"} <= set(row) or not all(per_seed.get(k) for k in keys):
+    return None
+  mi, h, hz = (mean_std(per_seed[k])[0] for k in keys)
+  paper_mi, paper_h = row["eval/mi"][0], row["eval/entropy"][0]
+  return mi, paper_mi, h, paper_h, hz, paper_h - paper_mi
+
+
+MI_PARTS_HEADER = [
+    "MI = H(s) - H(s|z): where each MI-max row's MI departs from the paper's (means over seeds, "
+    "blx's window; the paper's H(s|z) is its H(s) less its MI). H(s): how much the skills cover "
+    "together; H(s|z): how widely each skill's states spread.", "",
+    "| env | algorithm | MI, blx - paper | H(s), blx - paper | H(s\\|z), blx - paper |",
+    "| --- | --- | ---: | ---: | ---: |"]
+
+
 def compare(*directories: str) -> str:
   """The verdict table for every ``eval.json`` under the directories; files at the same path under
-  several directories are parts of one row (``merge``). Below it, each row's PPO settings that are
-  not the original's (``options_line``, from the ``config.json`` beside its ``eval.json``). Where
-  the table holds several evaluations of one env's row (a rerun beside the first run, say), each of
-  their rows names its file. Raises ValueError for a directory that holds no ``eval.json``, and for
-  files at one path that are not parts of one row, naming them."""
+  several directories are parts of one row (``merge``). Below it, for the MI-max rows, where their
+  MI departs from the paper's, split into H(s) and H(s|z) (``mi_parts``); then each row's PPO
+  settings that are not the original's (``options_line``, from the ``config.json`` beside its
+  ``eval.json``). Where the table holds several evaluations of one env's row (a rerun beside the
+  first run, say), each of their rows names its file. Raises ValueError for a directory that holds
+  no ``eval.json``, and for files at one path that are not parts of one row, naming them."""
   evaluations, notes = compared(*directories)
-  rows = list(VERDICT_HEADER)
+  rows, parts = list(VERDICT_HEADER), []
   for source, evaluation, _ in evaluations:
+    algorithm = evaluation["objective"] + (f" ({source})" if source else "")
     rows += verdicts(evaluation, source=source)
+    split = mi_parts(evaluation)
+    if split:
+      mi, paper_mi, h, paper_h, hz, paper_hz = split
+      parts.append(f"| {evaluation.get('env', 'ant')} | {algorithm} | {mi:.3f} - {paper_mi:.3f} "
+                   f"= {mi - paper_mi:+.3f} | {h:.3f} - {paper_h:.3f} = {h - paper_h:+.3f} | "
+                   f"{hz:.3f} - {paper_hz:.3f} = {hz - paper_hz:+.3f} |")
+  if parts:
+    rows += [""] + MI_PARTS_HEADER + parts
   return "\n".join(rows + ([""] + notes if notes else []))
 
 

@@ -281,6 +281,28 @@ def test_compare_draws_each_rows_final_evaluation_with_its_verdict_in_each_windo
     paper_tables.draw_compare(str(png), str(tmp_path / "push"))
 
 
+def test_compare_splits_an_mi_max_rows_mi_gap_into_its_entropy_and_conditional_entropy(tmp_path):
+  # Ant GCRL's paper row: MI 1.218, H(s) 6.066, so its mean H(s|z) is 4.848. A row whose skills
+  # cover less (H(s) 5.766) and spread as widely as the paper's (H(s|z) 4.848 + 0.1) is short by
+  # 0.3 + 0.1 of MI.
+  rows = tmp_path / "ant"
+  os.makedirs(rows)
+  h, hz = [5.666, 5.766, 5.866], [4.848, 4.948, 5.048]
+  (rows / "gcrl_eval.json").write_text(json.dumps(_evaluation("gcrl", range(3), env="ant", **{
+      "eval/mi": [a - b for a, b in zip(h, hz)], "eval/entropy": h,
+      "eval/conditional_entropy": hz, "eval/lgr": [2.0, 2.1, 2.2]})))
+  # D-min rows, and an MI-max row from before blx recorded H(s|z), have no such line
+  (rows / "gail_eval.json").write_text(json.dumps(_evaluation("gail", range(3), env="ant", **{
+      "eval/energy_distance": [1.0, 1.1, 1.2]})))
+  (rows / "diayn_eval.json").write_text(json.dumps(_evaluation("diayn", range(3), env="ant", **{
+      "eval/mi": [1.0, 1.1, 1.2], "eval/entropy": [5.5, 5.6, 5.7]})))
+  lines = paper_tables.compare(str(rows)).splitlines()
+  start = lines.index(paper_tables.MI_PARTS_HEADER[0])
+  assert lines[start + 2:] == paper_tables.MI_PARTS_HEADER[2:] + [
+      "| ant | gcrl | 0.818 - 1.218 = -0.400 | 5.766 - 6.066 = -0.300 | 4.948 - 4.848 = +0.100 |"]
+  assert paper_tables.mi_parts(json.loads((rows / "diayn_eval.json").read_text())) is None
+
+
 def test_a_table_whose_runs_stopped_before_finishing_says_it_has_no_verdicts(
     tmp_path, monkeypatch, capsys):
   def run_sweep(spec, out, **kwargs):  # its runs stopped by a time limit: no eval.json
