@@ -832,6 +832,9 @@ def main():
   if sum(bool(x) for x in (args.compare, args.progress, args.paired)) > 1:
     parser.error("--compare, --progress and --paired: give one (the final verdicts, the rows' "
                  "progress, or two evaluations paired by seed)")
+  if args.paired and args.plot:
+    parser.error("--plot draws the rows of --compare or of --progress, not --paired's two "
+                 "evaluations: leave it out, or draw them with --compare")
   if args.paired:
     try:
       print(paired_report(*args.paired))

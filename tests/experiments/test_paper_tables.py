@@ -269,10 +269,11 @@ def test_compare_draws_each_rows_final_evaluation_with_its_verdict_in_each_windo
   monkeypatch.setattr("sys.argv", ["paper_tables.py", "--compare", str(rows), "--plot", str(png)])
   paper_tables.main()
   assert f"wrote {png}" in capsys.readouterr().out
-  monkeypatch.setattr("sys.argv", ["paper_tables.py", "--plot", str(png)])
-  with pytest.raises(SystemExit):
-    paper_tables.main()
-  assert "--plot draws the rows of --compare" in capsys.readouterr().err
+  for argv in (["--plot", str(png)], ["--paired", str(rows), str(rows), "--plot", str(png)]):
+    monkeypatch.setattr("sys.argv", ["paper_tables.py", *argv])
+    with pytest.raises(SystemExit):
+      paper_tables.main()
+    assert "--plot draws the rows of --compare" in capsys.readouterr().err
   # nothing of the paper's tables: refused, named
   os.makedirs(tmp_path / "push")
   (tmp_path / "push" / "eval.json").write_text(json.dumps(_evaluation(
