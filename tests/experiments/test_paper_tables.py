@@ -284,8 +284,8 @@ def test_compare_draws_each_rows_final_evaluation_with_its_verdict_in_each_windo
 
 def test_compare_splits_an_mi_max_rows_mi_gap_into_its_entropy_and_conditional_entropy(tmp_path):
   # Ant GCRL's paper row: MI 1.218, H(s) 6.066, so its mean H(s|z) is 4.848. A row whose skills
-  # cover less (H(s) 5.766) and spread as widely as the paper's (H(s|z) 4.848 + 0.1) is short by
-  # 0.3 + 0.1 of MI.
+  # cover less (H(s) 5.766, 0.3 below) and each spread a little wider (H(s|z) 4.948, 0.1 above)
+  # is short by 0.3 + 0.1 of MI.
   rows = tmp_path / "ant"
   os.makedirs(rows)
   h, hz = [5.666, 5.766, 5.866], [4.848, 4.948, 5.048]
