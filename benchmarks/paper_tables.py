@@ -164,6 +164,14 @@ def papers_goals(eval_json: dict) -> bool:
   return (eval_json.get("evaluated_on") or {}).get("lgr_goals") == "braxlines"
 
 
+def tested(values: list[float], mean: float, std: float):
+  """blx's ``values`` (larger better) against the paper's row ``mean`` ± ``std``: ``(blx's mean,
+  its std, whether it reaches the paper's mean - std, Welch's (t, p) or None for one seed)``."""
+  mu, sd = mean_std(values)
+  test = welch(values, mean, std)[::2] if len(values) > 1 else None
+  return mu, sd, mu >= mean - std, test
+
+
 def verdicts(eval_json: dict, source: str | None = None) -> list[str]:
   """Markdown rows: metric, blx mean ± std (n), paper, Welch t and p, and whether blx reaches the
   paper's mean - std, for each of ``scored``'s metrics. An LGR evaluated on other goals than the
@@ -174,13 +182,9 @@ def verdicts(eval_json: dict, source: str | None = None) -> list[str]:
   algorithm = name if source is None else f"{name} ({source})"
   lines = []
   for key, metric, window, mean, std, values in scored(eval_json):
-    mu, sd = mean_std(values)
-    ok = "yes" if mu >= mean - std else "**no**"
-    if len(values) > 1:
-      t, _, p = welch(values, mean, std)
-      test = f"{t:+.2f} | {p:.3f}"
-    else:
-      test = "n/a (1 seed) | n/a"
+    mu, sd, meets, welch_t_p = tested(values, mean, std)
+    ok = "yes" if meets else "**no**"
+    test = f"{welch_t_p[0]:+.2f} | {welch_t_p[1]:.3f}" if welch_t_p else "n/a (1 seed) | n/a"
     if window == BRAXLINES_WINDOW:
       key += f" ({window})"
     if metric == "eval/lgr" and not papers_goals(eval_json):
@@ -223,24 +227,33 @@ def trained_off_row(name: str, config: dict) -> dict[str, tuple]:
                  returns=False)
 
 
-def options_line(name: str, config: dict) -> list[str]:
-  """A line naming ``name``'s settings that are not the original's (``trained_off_row``), or
-  none."""
-  changed = [f"{key} {value} (the original's: {default})"
-             for key, (value, default) in trained_off_row(name, config).items()]
-  return ([f"{name}: settings not the original's: {'; '.join(changed)}. An option's result, not "
-           "the paper's row."] if changed else [])
+def options_line(name: str, changed: dict[str, tuple]) -> list[str]:
+  """A line naming ``name``'s settings that are not the original's (``changed``, as
+  ``trained_off_row`` gives them), or none."""
+  named = [f"{key} {value} (the original's: {default})"
+           for key, (value, default) in changed.items()]
+  return ([f"{name}: settings not the original's: {'; '.join(named)}. An option's result, not "
+           "the paper's row."] if named else [])
+
+
+def eval_settings(eval_path: str) -> tuple[dict[str, tuple], list[str]]:
+  """The settings of the run of the ``eval.json`` at ``eval_path`` that are not the original's
+  (``trained_off_row``), from the ``config.json`` beside it, and its ``options_line``; or ``{}``
+  and a line saying its config could not be read; ``({}, [])`` where it has none."""
+  prefix = eval_path[:-len("eval.json")]
+  if not os.path.exists(prefix + "config.json"):
+    return {}, []
+  config = read_config(prefix)
+  if not isinstance(config, dict):
+    return {}, [f"{config}: its settings were not checked against the original's"]
+  name = prefix.rstrip("_/" + os.sep)
+  changed = trained_off_row(name, config)
+  return changed, options_line(name, changed)
 
 
 def eval_options(eval_path: str) -> list[str]:
-  """``options_line`` for the run of the ``eval.json`` at ``eval_path``, from the ``config.json``
-  beside it (none where there is none), or a line saying its config could not be read."""
-  prefix = eval_path[:-len("eval.json")]
-  if not os.path.exists(prefix + "config.json"):
-    return []
-  config = read_config(prefix)
-  return (options_line(prefix.rstrip("_/" + os.sep), config) if isinstance(config, dict)
-          else [f"{config}: its settings were not checked against the original's"])
+  """``eval_settings``' lines alone: the run's ``options_line``, or why its config was not read."""
+  return eval_settings(eval_path)[1]
 
 
 def eval_files(directory: str) -> list[str]:
@@ -249,20 +262,12 @@ def eval_files(directory: str) -> list[str]:
   return sorted(glob.glob(os.path.join(directory, "**", "*eval.json"), recursive=True))
 
 
-def eval_off_row(eval_path: str) -> dict[str, tuple]:
-  """``trained_off_row`` of the run of the ``eval.json`` at ``eval_path``, from the ``config.json``
-  beside it; ``{}`` where there is none or it cannot be read (``eval_options`` says which)."""
-  prefix = eval_path[:-len("eval.json")]
-  config = read_config(prefix) if os.path.exists(prefix + "config.json") else None
-  return trained_off_row(prefix.rstrip("_/" + os.sep), config) if isinstance(config, dict) else {}
-
-
 def compared(*directories: str) -> tuple[list[tuple[str | None, dict, dict]], list[str]]:
   """Every ``eval.json`` under the directories, as ``compare`` tables them: ``([(source, the
   evaluation, its settings not the original's)], notes)``, one evaluation per path (files at the
   same path under several directories merged: ``merge``), in path order; ``source`` names its file
   where several evaluations of one env's row are among them, else None; the settings as
-  ``eval_off_row`` gives them (``{}``: the original's); ``notes``, a line per run with such
+  ``eval_settings`` gives them (``{}``: the original's); ``notes``, a line per run with such
   settings (``options_line``). Raises ValueError as ``compare`` says."""
   parts: dict[str, list[dict]] = {}
   found: dict[str, list[str]] = {}  # where each path's parts came from
@@ -279,9 +284,10 @@ def compared(*directories: str) -> tuple[list[tuple[str | None, dict, dict]], li
       with open(path) as f:
         parts.setdefault(rel, []).append(json.load(f))
       found.setdefault(rel, []).append(directory)
+      changed, lines = eval_settings(path)
       seen = notes.setdefault(rel, [])
-      seen += [line for line in eval_options(path) if line not in seen]
-      settings.setdefault(rel, {}).update(eval_off_row(path))
+      seen += [line for line in lines if line not in seen]
+      settings.setdefault(rel, {}).update(changed)
   merged = {}
   for rel in sorted(parts):
     try:
@@ -355,10 +361,11 @@ PANEL_ORDER = ("eval/mi", "eval/entropy", "eval/lgr", "eval/energy_distance")
 def _verdict(values: list[float], mean: float, std: float, alpha: float = 0.05) -> str:
   """"meets" or "short" (blx's mean against the paper's mean - std, larger better), then by Welch's
   test against the paper's row at level ``alpha`` whether blx is better, level or worse, with p."""
-  word = "meets" if mean_std(values)[0] >= mean - std else "short"
-  if len(values) < 2:
+  _, _, meets, welch_t_p = tested(values, mean, std)
+  word = "meets" if meets else "short"
+  if welch_t_p is None:
     return f"{word} (1 seed, no test)"
-  t, _, p = welch(values, mean, std)
+  t, p = welch_t_p
   relation = "level with" if p >= alpha else "better than" if t > 0 else "worse than"
   return f"{word}; {relation} the paper ({'p < 0.001' if p < 0.001 else f'p {p:.3f}'})"
 
@@ -369,7 +376,7 @@ def draw_compare(path: str, *directories: str) -> dict[str, list[str]]:
   units, LGR and energy distance as distances, lower better): the paper's mean ± std, blx's mean ±
   std over seeds and each seed, in blx's window and, where the run logged it, in Braxlines'. Each
   row's label names its algorithm (and file, as ``compare`` does), its settings that are not the
-  original's (an option's result, ``eval_off_row``), an LGR on other goals than the paper's, and
+  original's (an option's result, ``eval_settings``), an LGR on other goals than the paper's, and
   the verdict in each window, as ``verdicts`` has it. Returns each panel's labels,
   top to bottom, by metric. Raises ValueError where no evaluation holds a metric of the paper's
   row."""
@@ -568,7 +575,7 @@ def progress(*directories: str) -> str:
              if finished else "under training")
     out += [f"{name}: {objective} on {env}, {state}; its last evaluation every seed reached, at "
             f"{last / 1e6:.1f} M{of} env steps per seed:", ""]
-    named = options_line(name, config)
+    named = options_line(name, trained_off_row(name, config))
     out += named + [""] * bool(named)
     segments = run_segments(name)
     logged_by = runs.segment_at(segments, last)  # its goals: the LGR's label
