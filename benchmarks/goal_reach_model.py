@@ -1,0 +1,243 @@
+"""How far a GCRL row's skills reach toward their goals, as its MI and H(s) imply under a model of
+their states (#15). A reading of the paper's numbers and blx's beside them, not an experiment.
+
+    python benchmarks/goal_reach_model.py [EVAL_JSON] [--env ENV] [--dims D] [--obs-scale 5]
+        [--latents 10] [--episodes 10] [--steps 500] [--draws 20] [--out FILE.json]
+
+GCRL's latents are goals g ~ U(-s/2, s/2)^D (s = obs_scale, Braxlines' prior), and the paper's
+evaluation (Algorithm 1) bins, for each of ``--latents`` goals, ``--episodes`` x ``--steps`` states
+of the goal feature: 1000 bins over [-s, s] per dimension, the entropies averaged over dimensions.
+The model draws every state of goal g as m(g) + sigma * N(0, I), where m(g) is what the skill
+reaches of its goal. Two forms of it:
+- ``cap``: g shortened to a length of at most ``reach`` (a top speed, for a velocity goal);
+- ``fraction``: ``reach`` * g (the skill goes the goal's way, a fixed share of the distance).
+
+sigma alone sets H(s|z), how widely one skill's states spread; ``reach`` then sets how far apart
+the skills' states lie, and so H(s). For a row's mean H(s) and H(s|z) (the paper's H(s|z) is its
+H(s) less its MI) the script finds the sigma and the reach that give them, with the estimator of
+``blx.metrics.particle`` and the same draws for every candidate, by bisection. For EVAL_JSON (a
+finished GCRL row's ``eval.json``) it fits the row's mean and every seed; the paper's row comes from
+``paper_tables.PAPER``.
+
+What the model leaves out: a real skill's states are not independent draws (a stride, a drift
+within an episode, episodes that differ), and its reach need not be the same for every goal. So
+its sigma and reach are the simplest states that score what a row scores, a scale to read the
+row's numbers in (m/s, for the Ant's velocity goals), not a measurement of its skills. Runs on a
+CPU in about a minute.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import sys
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import common  # noqa: E402
+import paper_tables  # noqa: E402
+
+from blx.metrics import particle  # noqa: E402
+
+MODELS = ("cap", "fraction")
+BINS = 1000
+
+
+def reached(goals: np.ndarray, reach: float, model: str) -> np.ndarray:
+  """m(g) for goals ``[..., D]``: ``cap`` shortens each goal to a length of at most ``reach``,
+  ``fraction`` scales it by ``reach``."""
+  if model == "cap":
+    length = np.linalg.norm(goals, axis=-1, keepdims=True)
+    return goals * np.minimum(1.0, reach / np.maximum(length, 1e-12))
+  if model == "fraction":
+    return reach * goals
+  raise ValueError(f"model {model!r}: the models are {', '.join(MODELS)}")
+
+
+class Model:
+  """The model's states for fixed draws: ``draws`` evaluations of ``latents`` goals, each with
+  ``samples`` states (``episodes`` x ``steps``), scored as the paper scores a row."""
+
+  def __init__(self, *, dims: int = 2, obs_scale: float = 5.0, latents: int = 10,
+               samples: int = 5000, draws: int = 20, seed: int = 0):
+    if min(dims, latents, samples, draws) < 1 or obs_scale <= 0:
+      raise ValueError(f"dims {dims}, latents {latents}, samples {samples}, draws {draws} and "
+                       f"obs_scale {obs_scale} must all be positive")
+    rng = np.random.default_rng(seed)
+    self.obs_scale = obs_scale
+    self.goals = rng.uniform(-obs_scale / 2, obs_scale / 2, (draws, latents, 1, dims))
+    self.noise = rng.standard_normal((draws, latents, samples, dims)).astype(np.float32)
+    labels = jnp.repeat(jnp.arange(latents), samples)
+
+    def score(states):  # [L, S, D] -> (H(s), H(s|z)), each averaged over the dimensions
+      mi = particle.mutual_information(states.reshape(-1, dims), labels, bins=BINS,
+                                       value_range=(-obs_scale, obs_scale), num_labels=latents)
+      return mi["entropy"].mean(), mi["conditional_entropy"].mean()
+
+    self._score = jax.jit(jax.vmap(score))
+
+  def __call__(self, reach: float, sigma: float, model: str = "cap") -> tuple[float, float]:
+    """(H(s), H(s|z)), each the mean over the draws."""
+    states = reached(self.goals, reach, model) + sigma * self.noise
+    h, hz = self._score(jnp.asarray(states, jnp.float32))
+    return float(h.mean()), float(hz.mean())
+
+  def most_reach(self, model: str) -> float:
+    """The reach beyond which the model changes nothing: every goal reached whole (``cap``: the
+    box's corner; ``fraction``: the goal itself, a share of 1)."""
+    dims = self.goals.shape[-1]
+    return self.obs_scale / 2 * np.sqrt(dims) if model == "cap" else 1.0
+
+
+def _bisect(f, target: float, lo: float, hi: float, iterations: int = 20) -> float:
+  """x in [lo, hi] where the increasing ``f`` crosses ``target`` (lo or hi where it does not)."""
+  if f(lo) >= target:
+    return lo
+  if f(hi) <= target:
+    return hi
+  for _ in range(iterations):
+    mid = 0.5 * (lo + hi)
+    lo, hi = (mid, hi) if f(mid) < target else (lo, mid)
+  return 0.5 * (lo + hi)
+
+
+def fit(model: Model, entropy: float, conditional_entropy: float, form: str = "cap") -> dict:
+  """The sigma whose skills score ``conditional_entropy`` (at no reach), then the reach that, with
+  it, scores ``entropy``. ``reach_bound`` says where the target lies beyond the model's range
+  ("above": every goal reached whole still scores less H(s); "below": skills at the origin
+  already score more). The same for ``sigma_bound`` and H(s|z)."""
+  # Up to obs_scale / 5 the states stay within the estimator's range (5 sigma) and H(s|z) grows
+  # with sigma; beyond, states fall outside it and H(s|z) shrinks again.
+  sigma = _bisect(lambda s: model(0.0, s, form)[1], conditional_entropy, 1e-3,
+                  model.obs_scale / 5)
+  top = model.most_reach(form)
+  reach = _bisect(lambda r: model(r, sigma, form)[0], entropy, 0.0, top)
+  h, hz = model(reach, sigma, form)
+  return {"sigma": sigma, "sigma_bound": _bound(sigma, hz, conditional_entropy, 1e-3,
+                                                 model.obs_scale / 5),
+          "reach": reach, "reach_bound": _bound(reach, h, entropy, 0.0, top),
+          "entropy": h, "conditional_entropy": hz}
+
+
+def _bound(x: float, value: float, target: float, lo: float, hi: float) -> str:
+  """Whether the target lies beyond the bisection's interval: "above" (x at hi, still short of the
+  target), "below" (x at lo, already past it), or ""."""
+  tolerance = 1e-3
+  if x >= hi and value < target - tolerance:
+    return "above"
+  if x <= lo and value > target + tolerance:
+    return "below"
+  return ""
+
+
+def row_dims(eval_json: dict) -> int:
+  """The goal's dimensions in a row's ``eval.json``: its per-dimension MI, one a dimension."""
+  return sum(k.startswith("eval/mi_1d/") for k in eval_json["summary"])
+
+
+def row_means(eval_json: dict) -> tuple[dict, list[dict]]:
+  """The row's mean H(s) and H(s|z), and each seed's, from a GCRL row's ``eval.json``."""
+  if eval_json.get("objective") != "gcrl":
+    raise ValueError(f"the model is GCRL's (goals drawn from a box); this eval.json is of "
+                     f"{eval_json.get('objective')!r}")
+  summary, per_seed = eval_json["summary"], eval_json["per_seed"]
+  keys = ("eval/entropy", "eval/conditional_entropy")
+  missing = [k for k in keys if k not in summary or k not in per_seed]
+  if missing:
+    raise ValueError(f"the eval.json lacks {missing}; it needs H(s) and H(s|z)")
+  mean = {k: summary[k]["mean"] for k in keys}
+  seeds = [dict(zip(keys, v)) for v in zip(*(per_seed[k] for k in keys))]
+  return mean, seeds
+
+
+def main():
+  parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+  parser.add_argument("eval_json", nargs="?", default=None,
+                      help="a finished GCRL row's eval.json (default: the paper's row alone)")
+  parser.add_argument("--env", choices=paper_tables.ENVS, default=None,
+                      help="the paper's row to read (default: the eval.json's env, else ant)")
+  parser.add_argument("--dims", type=int, default=None,
+                      help="the goal's dimensions (default: the eval.json's, else 2: the xy "
+                      "velocity of the Ant and the Humanoid; the HalfCheetah's x velocity is 1)")
+  parser.add_argument("--obs-scale", type=float, default=5.0)
+  parser.add_argument("--latents", type=int, default=10)
+  parser.add_argument("--episodes", type=int, default=10)
+  parser.add_argument("--steps", type=int, default=500, help="scored states per episode")
+  parser.add_argument("--draws", type=int, default=20, help="evaluations the model averages")
+  parser.add_argument("--out", default=None, help="write the fits as JSON here")
+  args = parser.parse_args()
+  rows, row = {}, None
+  if args.eval_json:
+    try:
+      with open(args.eval_json) as f:
+        row = json.load(f)
+      rows["blx"] = row_means(row)
+    except (OSError, ValueError, KeyError) as e:
+      parser.error(f"{args.eval_json}: {e}")
+    if args.env and row.get("env") and args.env != row["env"]:
+      parser.error(f"--env {args.env}, but {args.eval_json} is a {row['env']} row; the paper's "
+                   "row must be of the same body")
+    if args.dims and args.dims != row_dims(row):
+      parser.error(f"--dims {args.dims}, but {args.eval_json} scored {row_dims(row)} dimensions")
+  args.env = args.env or (row or {}).get("env", "ant")
+  args.dims = args.dims or (row_dims(row) if row else 2)
+  paper = paper_tables.PAPER.get(args.env, {}).get("gcrl")
+  if paper is None:
+    parser.error(f"the paper has no GCRL row for {args.env!r}")
+  rows = {"paper": ({"eval/entropy": paper["eval/entropy"][0],
+                     "eval/conditional_entropy": paper["eval/entropy"][0] - paper["eval/mi"][0]},
+                    []), **rows}
+  try:
+    model = Model(dims=args.dims, obs_scale=args.obs_scale, latents=args.latents,
+                  samples=args.episodes * args.steps, draws=args.draws)
+  except ValueError as e:
+    parser.error(str(e))
+  out = {"env": args.env, "dims": args.dims, "obs_scale": args.obs_scale,
+         "latents": args.latents, "samples_per_latent": args.episodes * args.steps,
+         "draws": args.draws, "rows": {}}
+  print(f"| row | H(s) | H(s\\|z) | MI | model | sigma | reach |")
+  print("| --- | ---: | ---: | ---: | --- | ---: | ---: |")
+  for name, (mean, seeds) in rows.items():
+    h, hz = mean["eval/entropy"], mean["eval/conditional_entropy"]
+    entry = out["rows"][name] = {"entropy": h, "conditional_entropy": hz, "fits": {}}
+    for form in MODELS:
+      fitted = fit(model, h, hz, form)
+      per_seed = [fit(model, s["eval/entropy"], s["eval/conditional_entropy"], form)["reach"]
+                  for s in seeds]
+      entry["fits"][form] = {**fitted, "reach_per_seed": per_seed}
+      spread = f" ({np.mean(per_seed):.2f} ± {np.std(per_seed):.2f} over seeds)" if seeds else ""
+      bound = {"above": "at least ", "below": "at most "}
+      print(f"| {name} | {h:.3f} | {hz:.3f} | {h - hz:.3f} | {form} | "
+            f"{bound.get(fitted['sigma_bound'], '')}{fitted['sigma']:.3f} | "
+            f"{bound.get(fitted['reach_bound'], '')}{fitted['reach']:.2f}{spread} |")
+  if "blx" in out["rows"]:
+    out["swapped"] = swapped(model, out["rows"]["paper"]["fits"], out["rows"]["blx"]["fits"])
+    print("\nMI of the model with one part of blx's fit and the other of the paper's:")
+    print("| model | blx | blx's sigma, the paper's reach | the paper's sigma, blx's reach | paper |")
+    print("| --- | ---: | ---: | ---: | ---: |")
+    for form, mi in out["swapped"].items():
+      print(f"| {form} | {mi['blx']:.3f} | {mi['blx_sigma_paper_reach']:.3f} | "
+            f"{mi['paper_sigma_blx_reach']:.3f} | {mi['paper']:.3f} |")
+  if args.out:
+    common.write_json(args.out, out)
+
+
+def swapped(model: Model, paper: dict, blx: dict) -> dict:
+  """Per model form, the model's MI with both fits' sigma and reach, and with each swapped: how
+  much of the MI gap the reach accounts for, and how much the spread."""
+  out = {}
+  for form in MODELS:
+    mi = lambda reach, sigma: float(np.subtract(*model(reach, sigma, form)))
+    p, b = paper[form], blx[form]
+    out[form] = {"blx": mi(b["reach"], b["sigma"]), "paper": mi(p["reach"], p["sigma"]),
+                 "blx_sigma_paper_reach": mi(p["reach"], b["sigma"]),
+                 "paper_sigma_blx_reach": mi(b["reach"], p["sigma"])}
+  return out
+
+
+if __name__ == "__main__":
+  main()

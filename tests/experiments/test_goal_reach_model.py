@@ -1,0 +1,80 @@
+"""benchmarks/goal_reach_model.py: a GCRL row's MI and H(s) read as how far its skills reach toward
+their goals, under a model of their states scored with the paper's estimator."""
+
+import json
+import os
+
+import numpy as np
+import pytest
+
+from tests.experiments import load_benchmark
+
+grm = load_benchmark("goal_reach_model")
+PAPER_DIR = os.path.join(os.path.dirname(__file__), "..", "..", "benchmarks", "paper")
+
+
+@pytest.fixture(scope="module")
+def model():
+  # Small: 2 draws of 10 goals with 2,000 states each (the protocol's is 20 draws of 5,000).
+  return grm.Model(dims=2, obs_scale=5.0, latents=10, samples=2000, draws=2)
+
+
+@pytest.mark.parametrize("form,sigma,reach", [("cap", 0.3, 1.5), ("fraction", 0.4, 0.6)])
+def test_the_fit_finds_the_sigma_and_reach_the_states_were_drawn_with(model, form, sigma, reach):
+  h, hz = model(reach, sigma, form)
+  fitted = grm.fit(model, h, hz, form)
+  assert fitted["sigma"] == pytest.approx(sigma, abs=0.01)
+  assert fitted["reach"] == pytest.approx(reach, abs=0.05)
+  assert (fitted["sigma_bound"], fitted["reach_bound"]) == ("", "")
+
+
+def test_reach_spreads_the_skills_apart_and_sigma_spreads_each_skill(model):
+  rows = [model(reach, 0.3, "cap") for reach in (0.0, 0.5, 1.0, 2.0, 3.6, 5.0)]
+  h = [r[0] for r in rows]
+  hz = [r[1] for r in rows]
+  # H(s) grows with the reach until every goal is reached whole (the box's corner, 3.54 m/s);
+  # H(s|z), one skill's spread, does not move with it.
+  assert all(b > a + 0.01 for a, b in zip(h[:4], h[1:5]))
+  assert h[5] == pytest.approx(h[4], abs=1e-6)
+  assert max(hz) - min(hz) < 0.01
+  assert model(1.0, 0.5, "cap")[1] > hz[0] + 0.3
+  # No reach: every skill's states lie about the origin, so the MI is the estimator's own: a
+  # skill's 2,000 states fill fewer bins than all 20,000 together, a small positive bias.
+  assert 0 < h[0] - hz[0] < 0.1
+
+
+def test_a_target_beyond_the_model_is_named_as_a_bound(model):
+  h, hz = model(grm.Model.most_reach(model, "cap"), 0.3, "cap")
+  fitted = grm.fit(model, h + 0.5, hz, "cap")
+  assert fitted["reach_bound"] == "above"
+  assert fitted["reach"] == pytest.approx(model.most_reach("cap"))
+  assert grm.fit(model, hz - 0.5, hz, "fraction")["reach_bound"] == "below"
+
+
+def test_swapping_the_parts_of_two_fits_gives_each_fit_s_mi_and_the_mixtures(model):
+  blx = {f: grm.fit(model, *model(r, s, f), f) for f, r, s in
+         (("cap", 1.0, 0.35), ("fraction", 0.45, 0.35))}
+  paper = {f: grm.fit(model, *model(r, s, f), f) for f, r, s in
+           (("cap", 2.3, 0.3), ("fraction", 0.9, 0.3))}
+  out = grm.swapped(model, paper, blx)
+  mi = lambda r, s, f: np.subtract(*model(r, s, f))
+  for form in grm.MODELS:
+    assert out[form]["blx"] == pytest.approx(mi(blx[form]["reach"], blx[form]["sigma"], form))
+    # The paper's reach with blx's spread scores between the two rows: both parts count.
+    assert out[form]["blx"] < out[form]["blx_sigma_paper_reach"] < out[form]["paper"]
+    assert out[form]["blx"] < out[form]["paper_sigma_blx_reach"] < out[form]["paper"]
+
+
+def test_a_gcrl_eval_json_is_read_and_another_objective_is_refused():
+  with open(os.path.join(PAPER_DIR, "brax_ant_5ms", "gcrl_eval.json")) as f:
+    row = json.load(f)
+  mean, seeds = grm.row_means(row)
+  assert mean["eval/entropy"] == row["summary"]["eval/entropy"]["mean"]
+  assert len(seeds) == len(row["seeds"]) == 10
+  assert np.mean([s["eval/conditional_entropy"] for s in seeds]) == pytest.approx(
+      mean["eval/conditional_entropy"], rel=1e-5)
+  with open(os.path.join(PAPER_DIR, "brax_ant_5ms", "diayn_eval.json")) as f:
+    with pytest.raises(ValueError, match="'diayn'"):
+      grm.row_means(json.load(f))
+  with pytest.raises(ValueError, match="cap, fraction"):
+    grm.reached(np.zeros((1, 2)), 1.0, "clip")
