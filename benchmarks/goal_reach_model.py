@@ -181,8 +181,12 @@ def main():
     if args.env and row.get("env") and args.env != row["env"]:
       parser.error(f"--env {args.env}, but {args.eval_json} is a {row['env']} row; the paper's "
                    "row must be of the same body")
-    if args.dims and args.dims != row_dims(row):
-      parser.error(f"--dims {args.dims}, but {args.eval_json} scored {row_dims(row)} dimensions")
+    scored = row_dims(row)
+    if args.dims and scored and args.dims != scored:
+      parser.error(f"--dims {args.dims}, but {args.eval_json} scored {scored} dimensions")
+    if not (args.dims or scored):
+      parser.error(f"{args.eval_json} has no per-dimension MI (eval/mi_1d/...) to count the "
+                   "goal's dimensions by; give --dims")
   args.env = args.env or (row or {}).get("env", "ant")
   args.dims = args.dims or (row_dims(row) if row else 2)
   paper = paper_tables.PAPER.get(args.env, {}).get("gcrl")

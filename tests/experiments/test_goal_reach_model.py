@@ -78,3 +78,30 @@ def test_a_gcrl_eval_json_is_read_and_another_objective_is_refused():
       grm.row_means(json.load(f))
   with pytest.raises(ValueError, match="cap, fraction"):
     grm.reached(np.zeros((1, 2)), 1.0, "clip")
+
+
+@pytest.mark.parametrize("argv,message", [
+    (["brax_humanoid/gcrl_eval.json", "--env", "ant"], "is a humanoid row"),
+    (["brax_ant_5ms/gcrl_eval.json", "--dims", "1"], "scored 2 dimensions"),
+    (["brax_ant_5ms/diayn_eval.json"], "'diayn'"),
+    (["no_such_row/eval.json"], "No such file"),
+])
+def test_the_command_refuses_a_row_it_cannot_read_naming_why(argv, message, monkeypatch, capsys):
+  argv = [os.path.join(PAPER_DIR, argv[0]), *argv[1:]]
+  monkeypatch.setattr("sys.argv", ["goal_reach_model.py", *argv])
+  with pytest.raises(SystemExit):
+    grm.main()
+  assert message in capsys.readouterr().err
+
+
+def test_a_row_without_per_dimension_mi_asks_for_its_dimensions(tmp_path, monkeypatch, capsys):
+  with open(os.path.join(PAPER_DIR, "brax_ant_5ms", "gcrl_eval.json")) as f:
+    row = json.load(f)
+  for key in [k for k in row["summary"] if k.startswith("eval/mi_1d/")]:
+    del row["summary"][key]
+  path = tmp_path / "eval.json"
+  path.write_text(json.dumps(row))
+  monkeypatch.setattr("sys.argv", ["goal_reach_model.py", str(path)])
+  with pytest.raises(SystemExit):
+    grm.main()
+  assert "give --dims" in capsys.readouterr().err
