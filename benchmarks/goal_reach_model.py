@@ -203,7 +203,7 @@ def main():
   out = {"env": args.env, "dims": args.dims, "obs_scale": args.obs_scale,
          "latents": args.latents, "samples_per_latent": args.episodes * args.steps,
          "draws": args.draws, "rows": {}}
-  print(f"| row | H(s) | H(s\\|z) | MI | model | sigma | reach |")
+  print("| row | H(s) | H(s\\|z) | MI | model | sigma | reach |")
   print("| --- | ---: | ---: | ---: | --- | ---: | ---: |")
   for name, (mean, seeds) in rows.items():
     h, hz = mean["eval/entropy"], mean["eval/conditional_entropy"]
