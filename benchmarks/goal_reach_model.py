@@ -112,14 +112,13 @@ def fit(model: Model, entropy: float, conditional_entropy: float, form: str = "c
   already score more). The same for ``sigma_bound`` and H(s|z)."""
   # Up to obs_scale / 5 the states stay within the estimator's range (5 sigma) and H(s|z) grows
   # with sigma; beyond, states fall outside it and H(s|z) shrinks again.
-  sigma = _bisect(lambda s: model(0.0, s, form)[1], conditional_entropy, 1e-3,
-                  model.obs_scale / 5)
-  top = model.most_reach(form)
-  reach = _bisect(lambda r: model(r, sigma, form)[0], entropy, 0.0, top)
+  sigmas = (1e-3, model.obs_scale / 5)
+  sigma = _bisect(lambda s: model(0.0, s, form)[1], conditional_entropy, *sigmas)
+  reaches = (0.0, model.most_reach(form))
+  reach = _bisect(lambda r: model(r, sigma, form)[0], entropy, *reaches)
   h, hz = model(reach, sigma, form)
-  return {"sigma": sigma, "sigma_bound": _bound(sigma, hz, conditional_entropy, 1e-3,
-                                                 model.obs_scale / 5),
-          "reach": reach, "reach_bound": _bound(reach, h, entropy, 0.0, top),
+  return {"sigma": sigma, "sigma_bound": _bound(sigma, hz, conditional_entropy, *sigmas),
+          "reach": reach, "reach_bound": _bound(reach, h, entropy, *reaches),
           "entropy": h, "conditional_entropy": hz}
 
 
@@ -170,7 +169,7 @@ def main():
   parser.add_argument("--draws", type=int, default=20, help="evaluations the model averages")
   parser.add_argument("--out", default=None, help="write the fits as JSON here")
   args = parser.parse_args()
-  rows, row = {}, None
+  rows, row, scored = {}, None, 0
   if args.eval_json:
     try:
       with open(args.eval_json) as f:
@@ -188,7 +187,7 @@ def main():
       parser.error(f"{args.eval_json} has no per-dimension MI (eval/mi_1d/...) to count the "
                    "goal's dimensions by; give --dims")
   args.env = args.env or (row or {}).get("env", "ant")
-  args.dims = args.dims or (row_dims(row) if row else 2)
+  args.dims = args.dims or scored or 2
   paper = paper_tables.PAPER.get(args.env, {}).get("gcrl")
   if paper is None:
     parser.error(f"the paper has no GCRL row for {args.env!r}")
@@ -203,6 +202,7 @@ def main():
   out = {"env": args.env, "dims": args.dims, "obs_scale": args.obs_scale,
          "latents": args.latents, "samples_per_latent": args.episodes * args.steps,
          "draws": args.draws, "rows": {}}
+  bound = {"above": "at least ", "below": "at most "}
   print("| row | H(s) | H(s\\|z) | MI | model | sigma | reach |")
   print("| --- | ---: | ---: | ---: | --- | ---: | ---: |")
   for name, (mean, seeds) in rows.items():
@@ -214,7 +214,6 @@ def main():
                   for s in seeds]
       entry["fits"][form] = {**fitted, "reach_per_seed": per_seed}
       spread = f" ({np.mean(per_seed):.2f} ± {np.std(per_seed):.2f} over seeds)" if seeds else ""
-      bound = {"above": "at least ", "below": "at most "}
       print(f"| {name} | {h:.3f} | {hz:.3f} | {h - hz:.3f} | {form} | "
             f"{bound.get(fitted['sigma_bound'], '')}{fitted['sigma']:.3f} | "
             f"{bound.get(fitted['reach_bound'], '')}{fitted['reach']:.2f}{spread} |")
