@@ -48,14 +48,14 @@ the parts back from the history, checking every one against its recorded SHA-256
 parts stay in the history; commit the ledger with the run's results).
 
 The working tree itself is most of a call's 64 MiB: the committed results (``benchmarks/paper``,
-``benchmarks/multiagent``: figures, metrics and finished checkpoints, about 28 MiB) travel with
-every call, though nothing on the device reads them. With them and the wheels (24 MiB) no pack
-(28 MiB) fits. ``aside`` moves those folders (``ASIDE``) out of the tree, into ``.git/blx-aside``
-(which does not travel), for the calls; ``back`` returns them. A first call then carries the
-wheels and a pack (about 53 MiB), a later one two packs. Nothing is lost either way: ``aside``
-refuses where ``.git/blx-aside`` holds them already, ``back`` where the tree holds them again (say,
-after a checkout), and both leave the other side as it was. While they are aside, git sees them deleted:
-commit nothing with ``-a`` until ``back``.
+``benchmarks/multiagent``: figures, metrics and finished checkpoints, about 44 MiB by session 87)
+travel with every call, though nothing on the device reads them. With them the wheels (24 MiB) alone
+are more than a call carries, and no pack (28 MiB) fits. ``aside`` moves those folders (``ASIDE``)
+out of the tree, into ``.git/blx-aside`` (which does not travel), for the calls; ``back`` returns
+them. A first call then carries the wheels and a pack (about 53 MiB), a later one two packs. Nothing
+is lost either way: ``aside`` refuses where ``.git/blx-aside`` holds them already, ``back`` where
+the tree holds them again (say, after a checkout), and both leave the other side as it was. While
+they are aside, git sees them deleted: commit nothing with ``-a`` until ``back``.
 """
 
 from __future__ import annotations
