@@ -1,8 +1,8 @@
 """How far a GCRL row's skills reach toward their goals, as its MI and H(s) imply under a model of
 their states (#15). A reading of the paper's numbers and blx's beside them, not an experiment.
 
-    python benchmarks/goal_reach_model.py [EVAL_JSON] [--env ENV] [--dims D] [--obs-scale 5]
-        [--latents 10] [--episodes 10] [--steps 500] [--draws 20] [--out FILE.json]
+    python benchmarks/goal_reach_model.py [EVAL_JSON | RUN_DIR] [--env ENV] [--dims D]
+        [--obs-scale 5] [--latents N] [--episodes N] [--steps 500] [--draws 20] [--out FILE.json]
 
 GCRL's latents are goals g ~ U(-s/2, s/2)^D (s = obs_scale, Braxlines' prior), and the paper's
 evaluation (Algorithm 1) bins, for each of ``--latents`` goals, ``--episodes`` x ``--steps`` states
@@ -17,7 +17,13 @@ the skills' states lie, and so H(s). For a row's mean H(s) and H(s|z) (the paper
 H(s) less its MI) the script finds the sigma and the reach that give them, with the estimator of
 ``blx.metrics.particle`` and the same draws for every candidate, by bisection. For EVAL_JSON (a
 finished GCRL row's ``eval.json``) it fits the row's mean and every seed; the paper's row comes from
-``paper_tables.PAPER``.
+``paper_tables.PAPER``. For RUN_DIR (a GCRL run that logs the paper's metrics while it trains,
+``--eval-metrics``) it reads the run's last evaluation that every seed reached (``run_row``). The
+model draws as many goals and episodes as the evaluation it reads took (``--latents``,
+``--episodes``; by default its protocol's, ``blx.metrics.families.ROLLOUTS``: 10 and 10 for an
+eval.json, 4 and 4 for a run's quick evaluations), since the estimator reads other values from
+other sizes. The paper's row is fitted at the same sizes, which are not the paper's own where they
+are quick: compare a quick evaluation's fit with the paper's at the protocol's sizes.
 
 What the model leaves out: a real skill's states are not independent draws (a stride, a drift
 within an episode, episodes that differ), and its reach need not be the same for every goal. So
@@ -38,10 +44,13 @@ import jax.numpy as jnp
 import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import ablations  # noqa: E402
 import common  # noqa: E402
 import paper_tables  # noqa: E402
 
+from blx.experiments import runs  # noqa: E402
 from blx.metrics import particle  # noqa: E402
+from blx.metrics.families import ROLLOUTS  # noqa: E402
 
 MODELS = ("cap", "fraction")
 BINS = 1000
@@ -153,18 +162,50 @@ def row_means(eval_json: dict) -> tuple[dict, list[dict]]:
   return mean, seeds
 
 
+def run_row(directory: str) -> dict:
+  """The last evaluation that every seed of the run in ``directory`` reached (its H(s), H(s|z) and
+  per-dimension MI, logged with ``--eval-metrics``), as ``row_means`` reads an eval.json, with its
+  ``env_steps`` and ``eval_protocol`` (the rollouts it took: the one its provenance records, else
+  "quick", as training logged before provenance named it). Raises ValueError for a directory
+  without one run's metrics.csv, or whose runs logged no H(s|z)."""
+  found = paper_tables.logged(directory)
+  if len(found) != 1:
+    raise ValueError(f"{len(found)} runs under {directory}: give one run's directory")
+  name, config, rows, _ = found[0]
+  if isinstance(config, str):
+    raise ValueError(config)
+  keys = ["eval/entropy", "eval/conditional_entropy",
+          *sorted(k for k in (rows[0] if rows else {}) if k.startswith("eval/mi_1d/"))]
+  values = {key: ablations.by_step(rows, key) for key in keys}
+  steps = ablations.complete_steps(values["eval/conditional_entropy"])
+  if not steps:
+    raise ValueError(f"{name}'s metrics.csv has no evaluation with H(s|z) (train with "
+                     "--eval-metrics)")
+  last = steps[-1]
+  seeds = sorted(values["eval/conditional_entropy"][last])
+  per_seed = {key: [by[last][s] for s in seeds] for key, by in values.items()
+              if set(by.get(last, {})) == set(seeds)}
+  segment = runs.segment_at(paper_tables.run_segments(name), last)
+  return {"env": config["env"], "objective": config["objective"], "env_steps": last,
+          "eval_protocol": (segment and segment.eval_protocol) or "quick", "per_seed": per_seed,
+          "summary": {key: {"mean": float(np.mean(v))} for key, v in per_seed.items()}}
+
+
 def main():
   parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-  parser.add_argument("eval_json", nargs="?", default=None,
-                      help="a finished GCRL row's eval.json (default: the paper's row alone)")
+  parser.add_argument("eval_json", nargs="?", default=None, metavar="EVAL_JSON | RUN_DIR",
+                      help="a finished GCRL row's eval.json, or a GCRL run's directory (its last "
+                      "evaluation during training) (default: the paper's row alone)")
   parser.add_argument("--env", choices=paper_tables.ENVS, default=None,
                       help="the paper's row to read (default: the eval.json's env, else ant)")
   parser.add_argument("--dims", type=int, default=None,
                       help="the goal's dimensions (default: the eval.json's, else 2: the xy "
                       "velocity of the Ant and the Humanoid; the HalfCheetah's x velocity is 1)")
   parser.add_argument("--obs-scale", type=float, default=5.0)
-  parser.add_argument("--latents", type=int, default=10)
-  parser.add_argument("--episodes", type=int, default=10)
+  parser.add_argument("--latents", type=int, default=None,
+                      help="goals per evaluation (default: the evaluation's protocol's)")
+  parser.add_argument("--episodes", type=int, default=None,
+                      help="episodes per goal (default: the evaluation's protocol's)")
   parser.add_argument("--steps", type=int, default=500, help="scored states per episode")
   parser.add_argument("--draws", type=int, default=20, help="evaluations the model averages")
   parser.add_argument("--out", default=None, help="write the fits as JSON here")
@@ -172,8 +213,11 @@ def main():
   rows, row, scored = {}, None, 0
   if args.eval_json:
     try:
-      with open(args.eval_json) as f:
-        row = json.load(f)
+      if os.path.isdir(args.eval_json):
+        row = run_row(args.eval_json)
+      else:
+        with open(args.eval_json) as f:
+          row = json.load(f)
       rows["blx"] = row_means(row)
     except (OSError, ValueError, KeyError) as e:
       parser.error(f"{args.eval_json}: {e}")
@@ -188,6 +232,15 @@ def main():
                    "goal's dimensions by; give --dims")
   args.env = args.env or (row or {}).get("env", "ant")
   args.dims = args.dims or scored or 2
+  protocol = (row or {}).get("eval_protocol", "final")  # an eval.json's: the final evaluation's
+  args.latents = ROLLOUTS[protocol] if args.latents is None else args.latents
+  args.episodes = ROLLOUTS[protocol] if args.episodes is None else args.episodes
+  evaluation = ({"env_steps": row["env_steps"], "eval_protocol": protocol}
+                if row and "env_steps" in row else None)  # a run's, during training (run_row)
+  if evaluation:
+    print(f"{args.eval_json}: its evaluation at {row['env_steps'] / 1e6:.1f} M env steps per "
+          f"seed, {protocol} ({ROLLOUTS[protocol]} goals x {ROLLOUTS[protocol]} episodes); the "
+          f"model draws {args.latents} x {args.episodes}\n")
   paper = paper_tables.PAPER.get(args.env, {}).get("gcrl")
   if paper is None:
     parser.error(f"the paper has no GCRL row for {args.env!r}")
@@ -202,6 +255,8 @@ def main():
   out = {"env": args.env, "dims": args.dims, "obs_scale": args.obs_scale,
          "latents": args.latents, "samples_per_latent": args.episodes * args.steps,
          "draws": args.draws, "rows": {}}
+  if evaluation:
+    out["evaluation"] = evaluation
   bound = {"above": "at least ", "below": "at most "}
   print("| row | H(s) | H(s\\|z) | MI | model | sigma | reach |")
   print("| --- | ---: | ---: | ---: | --- | ---: | ---: |")

@@ -87,15 +87,20 @@ def scored_steps(env: Any) -> int:
   return min(500, max(1, envs.episode_steps(env, "evaluator_for") // 2))
 
 
+# Rollouts per evaluation by protocol (``blx.experiments.runs.EVAL_PROTOCOLS``): MI-max's latents,
+# episodes per latent and LGR goals, D-min's episodes; "quick" while training, "final": eval.json.
+ROLLOUTS = {"quick": 4, "final": 10}
+
+
 def _mimax(env, objective, *, last_steps, quick):
-  n = 4 if quick else 10
+  n = ROLLOUTS["quick" if quick else "final"]
   return mimax_evaluator(env, objective, num_latents=n, episodes_per_latent=n, num_goals=n,
                          last_steps=last_steps)
 
 
 def _dmin(env, objective, *, last_steps, quick):
   steps = envs.episode_steps(env, "evaluator_for")
-  return dmin_evaluator(env, objective, num_episodes=4 if quick else 10,
+  return dmin_evaluator(env, objective, num_episodes=ROLLOUTS["quick" if quick else "final"],
                         every=1 if steps < 200 else 10, last_steps=last_steps)
 
 

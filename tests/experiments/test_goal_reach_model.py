@@ -105,3 +105,58 @@ def test_a_row_without_per_dimension_mi_asks_for_its_dimensions(tmp_path, monkey
   with pytest.raises(SystemExit):
     grm.main()
   assert "give --dims" in capsys.readouterr().err
+
+
+def _gcrl_run(path, protocol=None):
+  """A GCRL run under training: two evaluations every seed reached, a third that seed 2 has not
+  yet; with ``protocol``, a provenance segment that records it."""
+  from tests.experiments.test_paper_tables import _run_dir
+  keys = ("eval/entropy", "eval/conditional_entropy", "eval/mi_1d/13", "eval/mi_1d/14")
+  run = _run_dir(path, "gcrl", "ant", [
+      (1e6, 10.0, dict(zip(keys, ([4.6, 4.7, 4.8], [4.5, 4.6, 4.7], [0.1] * 3, [0.1] * 3)))),
+      (2e6, 20.0, dict(zip(keys, ([5.5, 5.6, 5.7], [4.8, 4.9, 5.0], [0.6] * 3, [0.8] * 3)))),
+      (3e6, 30.0, dict(zip(keys, ([5.9, 5.9], [4.8, 4.8], [0.9] * 2, [0.9] * 2))))])
+  if protocol:
+    (path / "provenance.json").write_text(json.dumps({"segments": [{
+        "started": "2026-12-05T00:00:00Z", "from_env_steps": 0.0, "to_env_steps": 3e6,
+        "device": "cpu", "platform": "cpu", "device_count": 1, "versions": {},
+        "eval_protocol": protocol}]}))
+  return run
+
+
+def test_a_run_under_training_is_read_at_its_last_evaluation_every_seed_reached(tmp_path):
+  row = grm.run_row(str(_gcrl_run(tmp_path / "quick")))
+  assert (row["env_steps"], row["eval_protocol"], row["env"]) == (2e6, "quick", "ant")
+  assert row["per_seed"]["eval/conditional_entropy"] == [4.8, 4.9, 5.0]
+  mean, seeds = grm.row_means(row)
+  assert mean["eval/entropy"] == pytest.approx(5.6)
+  assert [s["eval/entropy"] for s in seeds] == [5.5, 5.6, 5.7]
+  assert grm.row_dims(row) == 2
+  assert grm.run_row(str(_gcrl_run(tmp_path / "final", "final")))["eval_protocol"] == "final"
+
+
+def test_a_run_is_modelled_at_its_evaluations_sizes_unless_told(tmp_path, monkeypatch, capsys):
+  run = _gcrl_run(tmp_path / "run")
+  for extra, latents in (([], grm.ROLLOUTS["quick"]), (["--latents", "10"], 10)):
+    out = tmp_path / f"fit{latents}.json"
+    monkeypatch.setattr("sys.argv", ["goal_reach_model.py", str(run), "--steps", "20", "--draws",
+                                     "1", "--out", str(out), *extra])
+    grm.main()
+    fits = json.loads(out.read_text())
+    assert (fits["latents"], fits["samples_per_latent"]) == (latents, 4 * 20)
+    assert fits["evaluation"] == {"env_steps": 2e6, "eval_protocol": "quick"}
+    assert fits["rows"]["blx"]["entropy"] == pytest.approx(5.6)
+    assert f"quick (4 goals x 4 episodes); the model draws {latents} x 4" in capsys.readouterr().out
+
+
+def test_a_directory_without_one_gcrl_run_is_refused_naming_why(tmp_path):
+  with pytest.raises(ValueError, match="no metrics.csv"):
+    grm.run_row(str(tmp_path))
+  _gcrl_run(tmp_path / "a")
+  _gcrl_run(tmp_path / "b")
+  with pytest.raises(ValueError, match="2 runs under"):
+    grm.run_row(str(tmp_path))
+  from tests.experiments.test_paper_tables import _run_dir
+  bare = _run_dir(tmp_path / "bare", "gcrl", "ant", [(1e6, 10.0, {"eval/mi": [0.1, 0.2, 0.3]})])
+  with pytest.raises(ValueError, match="no evaluation with H\\(s\\|z\\)"):
+    grm.run_row(str(bare))
