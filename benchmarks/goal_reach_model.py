@@ -3,6 +3,8 @@ their states (#15). A reading of the paper's numbers and blx's beside them, not 
 
     python benchmarks/goal_reach_model.py [EVAL_JSON | RUN_DIR] [--env ENV] [--dims D]
         [--obs-scale 5] [--latents N] [--episodes N] [--steps 500] [--draws 20] [--out FILE.json]
+    python benchmarks/goal_reach_model.py [EVAL_JSON | RUN_DIR] --predict FORM:REACH:SIGMA ...
+    python benchmarks/goal_reach_model.py EVAL_JSON --measured GOAL_REACHING_JSON [--neighbours 1]
 
 GCRL's latents are goals g ~ U(-s/2, s/2)^D (s = obs_scale, Braxlines' prior), and the paper's
 evaluation (Algorithm 1) bins, for each of ``--latents`` goals, ``--episodes`` x ``--steps`` states
@@ -24,6 +26,19 @@ model draws as many goals and episodes as the evaluation it reads took (``--late
 eval.json, 4 and 4 for a run's quick evaluations), since the estimator reads other values from
 other sizes. The paper's row is fitted at the same sizes, which are not the paper's own where they
 are quick: compare a quick evaluation's fit with the paper's at the protocol's sizes.
+
+``--measured GOAL_REACHING_JSON`` reads the skills as measured instead: per seed, each model goal's
+mean state is that of the nearest latent ``goal_reaching.py`` rolled out (``--neighbours K``: the
+inverse-distance mean of the K nearest), its spread the sigma fitted to EVAL_JSON's H(s|z); it
+prints the H(s) and MI that gives beside the evaluation's, seed by seed. It tests the cap and the
+fraction, which give every direction one reach, against the skills' own.
+
+``--predict FORM:REACH:SIGMA`` (repeatable; e.g. ``cap:2.19:0.3``, a top speed measured by
+``goal_reaching.py``'s ``farthest``, or ``fraction:0.83:0.3``, its ``goal_share``) turns the model
+around: it scores those states at the sizes drawn (``--latents`` x ``--episodes``; by default the
+protocol's of EVAL_JSON, else the final evaluation's 10 x 10) and prints the H(s), H(s|z) and MI
+they give, beside the paper's row and EVAL_JSON's, without fitting: a forecast to test against an
+evaluation not yet run.
 
 What the model leaves out: a real skill's states are not independent draws (a stride, a drift
 within an episode, episodes that differ), and its reach need not be the same for every goal. So
@@ -95,11 +110,52 @@ class Model:
     h, hz = self._score(jnp.asarray(states, jnp.float32))
     return float(h.mean()), float(hz.mean())
 
+  def score_means(self, means: np.ndarray, sigma: float) -> tuple[float, float]:
+    """(H(s), H(s|z)) of states drawn about given mean states ``means`` (``[draws, latents, 1,
+    dims]``, one per goal of ``self.goals``), each the mean over the draws."""
+    h, hz = self._score(jnp.asarray(means + sigma * self.noise, jnp.float32))
+    return float(h.mean()), float(hz.mean())
+
   def most_reach(self, model: str) -> float:
     """The reach beyond which the model changes nothing: every goal reached whole (``cap``: the
     box's corner; ``fraction``: the goal itself, a share of 1)."""
     dims = self.goals.shape[-1]
     return self.obs_scale / 2 * np.sqrt(dims) if model == "cap" else 1.0
+
+
+def measured_means(goals: np.ndarray, candidates: np.ndarray, candidate_means: np.ndarray,
+                   neighbours: int = 1) -> np.ndarray:
+  """m(g) read off measured skills: for goals ``[..., D]``, the mean states ``candidate_means
+  [C, D]`` that ``goal_reaching.py`` measured under the latents ``candidates [C, D]``, averaged
+  over the ``neighbours`` candidates nearest each goal, weighted by inverse distance (a candidate
+  at the goal itself takes all the weight)."""
+  distance = np.linalg.norm(goals[..., None, :] - candidates, axis=-1)  # [..., C]
+  k = min(neighbours, candidates.shape[0])
+  nearest = np.argsort(distance, -1)[..., :k]
+  d = np.take_along_axis(distance, nearest, -1)
+  weight = np.where(d[..., :1] < 1e-9, (d < 1e-9).astype(float), 1.0 / np.maximum(d, 1e-9))
+  weight = weight / weight.sum(-1, keepdims=True)
+  return (candidate_means[nearest] * weight[..., None]).sum(-2)
+
+
+def measured(model: Model, reaching: dict, sigma: float, neighbours: int = 1) -> dict:
+  """Per seed of a ``goal_reaching.py`` JSON (``reaching``), the model's H(s), H(s|z) and MI with
+  its skills' measured mean states (``measured_means``) in place of the cap or the fraction, and
+  spread ``sigma``: whether the reach as measured, direction by direction, scores what the row
+  does. ``{"seeds": [...], "entropy": [...], "conditional_entropy": [...], "mi": [...]}``."""
+  out = {"seeds": [], "entropy": [], "conditional_entropy": [], "mi": []}
+  for seed, row in reaching["per_seed"].items():
+    candidates = np.asarray(row["candidates"], np.float64)
+    if candidates.shape[-1] != model.goals.shape[-1]:
+      raise ValueError(f"seed {seed}'s candidates have {candidates.shape[-1]} dimensions, the "
+                       f"model's goals {model.goals.shape[-1]}")
+    means = measured_means(model.goals, candidates, np.asarray(row["candidate_means"]),
+                           neighbours)
+    h, hz = model.score_means(means, sigma)
+    for key, value in (("seeds", seed), ("entropy", h), ("conditional_entropy", hz),
+                       ("mi", h - hz)):
+      out[key].append(value)
+  return out
 
 
 def _bisect(f, target: float, lo: float, hi: float, iterations: int = 20) -> float:
@@ -114,15 +170,23 @@ def _bisect(f, target: float, lo: float, hi: float, iterations: int = 20) -> flo
   return 0.5 * (lo + hi)
 
 
+# Up to obs_scale / 5 the states stay within the estimator's range (5 sigma) and H(s|z) grows with
+# sigma; beyond, states fall outside it and H(s|z) shrinks again.
+_SIGMAS = lambda model: (1e-3, model.obs_scale / 5)
+
+
+def fit_sigma(model: Model, conditional_entropy: float, form: str = "cap") -> float:
+  """The sigma whose skills, at no reach, score ``conditional_entropy``."""
+  return _bisect(lambda s: model(0.0, s, form)[1], conditional_entropy, *_SIGMAS(model))
+
+
 def fit(model: Model, entropy: float, conditional_entropy: float, form: str = "cap") -> dict:
   """The sigma whose skills score ``conditional_entropy`` (at no reach), then the reach that, with
   it, scores ``entropy``. ``reach_bound`` says where the target lies beyond the model's range
   ("above": every goal reached whole still scores less H(s); "below": skills at the origin
   already score more). The same for ``sigma_bound`` and H(s|z)."""
-  # Up to obs_scale / 5 the states stay within the estimator's range (5 sigma) and H(s|z) grows
-  # with sigma; beyond, states fall outside it and H(s|z) shrinks again.
-  sigmas = (1e-3, model.obs_scale / 5)
-  sigma = _bisect(lambda s: model(0.0, s, form)[1], conditional_entropy, *sigmas)
+  sigmas = _SIGMAS(model)
+  sigma = fit_sigma(model, conditional_entropy, form)
   reaches = (0.0, model.most_reach(form))
   reach = _bisect(lambda r: model(r, sigma, form)[0], entropy, *reaches)
   h, hz = model(reach, sigma, form)
@@ -191,7 +255,34 @@ def run_row(directory: str) -> dict:
           "summary": {key: {"mean": float(np.mean(v))} for key, v in per_seed.items()}}
 
 
-def main():
+def prediction(text: str) -> tuple[str, float, float]:
+  """``FORM:REACH:SIGMA`` as ``(form, reach, sigma)``; ValueError naming what is wrong."""
+  parts = text.split(":")
+  if len(parts) != 3:
+    raise ValueError(f"--predict {text!r}: give FORM:REACH:SIGMA, e.g. cap:2.19:0.3")
+  form, *numbers = parts
+  if form not in MODELS:
+    raise ValueError(f"--predict {text!r}: the form {form!r} is not one of {', '.join(MODELS)}")
+  try:
+    reach, sigma = (float(n) for n in numbers)
+  except ValueError:
+    raise ValueError(f"--predict {text!r}: REACH and SIGMA must be numbers") from None
+  if reach < 0 or sigma <= 0:
+    raise ValueError(f"--predict {text!r}: REACH must be 0 or more and SIGMA more than 0")
+  return form, reach, sigma
+
+
+def predict(model: Model, predictions: list[tuple[str, float, float]]) -> list[dict]:
+  """The model's H(s), H(s|z) and MI for each ``(form, reach, sigma)``."""
+  out = []
+  for form, reach, sigma in predictions:
+    h, hz = model(reach, sigma, form)
+    out.append({"form": form, "reach": reach, "sigma": sigma, "entropy": h,
+                "conditional_entropy": hz, "mi": h - hz})
+  return out
+
+
+def main(argv=None):
   parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
   parser.add_argument("eval_json", nargs="?", default=None, metavar="EVAL_JSON | RUN_DIR",
                       help="a finished GCRL row's eval.json, or a GCRL run's directory (its last "
@@ -208,8 +299,28 @@ def main():
                       help="episodes per goal (default: the evaluation's protocol's)")
   parser.add_argument("--steps", type=int, default=500, help="scored states per episode")
   parser.add_argument("--draws", type=int, default=20, help="evaluations the model averages")
+  parser.add_argument("--predict", action="append", default=[], metavar="FORM:REACH:SIGMA",
+                      help="score these states instead of fitting (repeatable), e.g. "
+                      "cap:2.19:0.3 or fraction:0.83:0.3")
+  parser.add_argument("--measured", default=None, metavar="GOAL_REACHING_JSON",
+                      help="score the skills' mean states as goal_reaching.py measured them (its "
+                      "JSON, of EVAL_JSON's run), per seed, beside EVAL_JSON's")
+  parser.add_argument("--neighbours", type=int, default=1,
+                      help="with --measured: a goal's mean state is that of its nearest measured "
+                      "skill (1), or the inverse-distance mean of this many nearest")
   parser.add_argument("--out", default=None, help="write the fits as JSON here")
-  args = parser.parse_args()
+  args = parser.parse_args(argv)
+  if args.neighbours < 1:
+    parser.error(f"--neighbours {args.neighbours}: give 1 or more")
+  if args.measured and not args.eval_json:
+    parser.error("--measured needs EVAL_JSON (or RUN_DIR): the evaluation to set the measured "
+                 "skills beside")
+  if args.measured and args.predict:
+    parser.error("--measured and --predict are two readings; give one")
+  try:
+    predictions = [prediction(p) for p in args.predict]
+  except ValueError as e:
+    parser.error(str(e))
   rows, row, scored = {}, None, 0
   if args.eval_json:
     try:
@@ -257,6 +368,36 @@ def main():
          "draws": args.draws, "rows": {}}
   if evaluation:
     out["evaluation"] = evaluation
+  if args.measured:
+    try:
+      with open(args.measured) as f:
+        reaching = json.load(f)
+      sigma = fit_sigma(model, rows["blx"][0]["eval/conditional_entropy"])
+      out["measured"] = {"sigma": sigma, "neighbours": args.neighbours,
+                         **measured(model, reaching, sigma, args.neighbours)}
+      table = measured_table(out["measured"], rows["blx"][1])
+    except (OSError, ValueError, KeyError) as e:
+      parser.error(f"--measured {args.measured}: {e}")
+    print(table)
+    if args.out:
+      common.write_json(args.out, out)
+    return
+  if predictions:
+    out["predictions"] = predict(model, predictions)
+    print(f"the model at {args.latents} goals x {args.episodes} episodes x {args.steps} states:\n")
+    print("| states | H(s) | H(s\\|z) | MI |")
+    print("| --- | ---: | ---: | ---: |")
+    for p in out["predictions"]:
+      states = (f"cap at {p['reach']:g}" if p["form"] == "cap" else
+                f"{p['reach']:g} of each goal") + f", sigma {p['sigma']:g}"
+      print(f"| {states} | {p['entropy']:.3f} | {p['conditional_entropy']:.3f} | {p['mi']:.3f} |")
+    for name, (mean, _) in rows.items():
+      h, hz = mean["eval/entropy"], mean["eval/conditional_entropy"]
+      out["rows"][name] = {"entropy": h, "conditional_entropy": hz}
+      print(f"| {name}, measured | {h:.3f} | {hz:.3f} | {h - hz:.3f} |")
+    if args.out:
+      common.write_json(args.out, out)
+    return
   bound = {"above": "at least ", "below": "at most "}
   print("| row | H(s) | H(s\\|z) | MI | model | sigma | reach |")
   print("| --- | ---: | ---: | ---: | --- | ---: | ---: |")
@@ -282,6 +423,30 @@ def main():
             f"{mi['paper_sigma_blx_reach']:.3f} | {mi['paper']:.3f} |")
   if args.out:
     common.write_json(args.out, out)
+
+
+def measured_table(reading: dict, seeds: list[dict]) -> str:
+  """``measured``'s reading beside the evaluation's per-seed values ``seeds`` (``row_means``'),
+  seed by seed, with the means and the mean difference in H(s)."""
+  lines = [f"the model with the skills' measured mean states, sigma {reading['sigma']:.3f} (fitted "
+           "to the evaluation's H(s|z)), against the evaluation:", "",
+           "| seed | H(s), model | H(s), evaluation | MI, model | MI, evaluation |",
+           "| --- | ---: | ---: | ---: | ---: |"]
+  if len(seeds) != len(reading["seeds"]):
+    raise ValueError(f"the evaluation has {len(seeds)} seeds, the measurement "
+                     f"{len(reading['seeds'])}")
+  for seed, h, mi, row in zip(reading["seeds"], reading["entropy"], reading["mi"], seeds):
+    observed = row["eval/entropy"] - row["eval/conditional_entropy"]
+    lines.append(f"| {seed} | {h:.3f} | {row['eval/entropy']:.3f} | {mi:.3f} | {observed:.3f} |")
+  model_h = np.asarray(reading["entropy"])
+  seen_h = np.asarray([row["eval/entropy"] for row in seeds])
+  model_mi = np.asarray(reading["mi"])
+  seen_mi = seen_h - np.asarray([row["eval/conditional_entropy"] for row in seeds])
+  lines.append(f"| mean | {model_h.mean():.3f} | {seen_h.mean():.3f} | {model_mi.mean():.3f} | "
+               f"{seen_mi.mean():.3f} |")
+  diff = model_h - seen_h
+  lines += ["", f"H(s), model less evaluation: {diff.mean():+.3f} ± {diff.std():.3f} over seeds"]
+  return "\n".join(lines)
 
 
 def swapped(model: Model, paper: dict, blx: dict) -> dict:

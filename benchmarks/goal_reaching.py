@@ -31,6 +31,12 @@ episodes each, actions sampled unless ``--deterministic``:
   swing) and the part between them (the std of the episodes' means), averaged over the
   candidates; their squares add up to the variance of the latent's states. The histogram MI
   (``metrics.particle``) pays for either;
+- where the latents are goals (GCRL: an identity posterior over the evaluated dimensions), how
+  the skills follow them, from each candidate's goal z and mean state m: ``farthest``, the largest
+  |m| (for velocity goals, the top speed); ``goal_share``, the median over candidates of |m| / |z|
+  (the share of its goal's distance a skill covers); ``goal_cosine``, the mean of the cosine
+  between z and m (1: every skill goes its goal's way); and ``reached_norm``, the mean |m| the
+  inferred latents reach on the protocol's goals;
 - per goal (``goals``, ``inferred_latents``, ``reached_mean``, ``reached_std`` over the episodes'
   states, ``goal_lgr``, ``goal_best_lgr``, ``goal_reach``), and per candidate (``candidates``,
   ``candidate_means``, ``candidate_within_std``, ``candidate_between_std``).
@@ -116,16 +122,44 @@ def seed_goals(run, params, key: jax.Array, goals: jax.Array, episodes: int,
   return out
 
 
+def following(goals: np.ndarray, means: np.ndarray, reached: np.ndarray) -> dict:
+  """How skills whose latents are goals follow them: from each candidate's goal ``goals [..., C,
+  D]`` and mean state ``means [..., C, D]``, and the mean states the inferred latents reached on
+  the protocol's goals ``reached [..., G, D]``, the ``FOLLOWING`` values of the module's doc (each
+  ``[...]``). A candidate at the origin (no direction) has share and cosine 0."""
+  goal_norm = np.linalg.norm(goals, axis=-1)
+  mean_norm = np.linalg.norm(means, axis=-1)
+  share = np.divide(mean_norm, goal_norm, out=np.zeros_like(mean_norm), where=goal_norm > 0)
+  both = goal_norm * mean_norm
+  cosine = np.divide((goals * means).sum(-1), both, out=np.zeros_like(both), where=both > 0)
+  return {"farthest": mean_norm.max(-1), "goal_share": np.median(share, -1),
+          "goal_cosine": cosine.mean(-1),
+          "reached_norm": np.linalg.norm(reached, axis=-1).mean(-1)}
+
+
+def latents_are_goals(spec: MimaxSpec) -> bool:
+  """Whether a latent is a goal in the evaluated feature space (GCRL's identity posterior over the
+  dimensions evaluation looks at), so that ``following`` means something."""
+  return spec.posterior == "identity" and tuple(spec.obs_indices or ()) == tuple(
+      spec.eval_indices or spec.obs_indices or ())
+
+
 DECOMPOSED = ("lgr", "best_lgr", "reach_lgr", "inference_excess", "reach_low", "reach_high")
+FOLLOWING = ("farthest", "goal_share", "goal_cosine", "reached_norm")
 SUMMARY = DECOMPOSED + ("spread_within", "spread_between")
 
 
-def summary_values(values: dict) -> dict:
+def summary_values(values: dict, goals_are_latents: bool = False) -> dict:
   """The ``SUMMARY`` values per seed from ``seed_goals``' (vmapped over seeds): the spreads are the
-  candidates' mean ``within_std`` and ``between_std``."""
-  return {**{k: values[k] for k in DECOMPOSED},
-          "spread_within": values["candidate_within_std"].mean(-2),
-          "spread_between": values["candidate_between_std"].mean(-2)}
+  candidates' mean ``within_std`` and ``between_std``; with ``goals_are_latents`` (GCRL), also the
+  ``FOLLOWING`` values."""
+  out = {**{k: values[k] for k in DECOMPOSED},
+         "spread_within": values["candidate_within_std"].mean(-2),
+         "spread_between": values["candidate_between_std"].mean(-2)}
+  if goals_are_latents:
+    out.update(following(*(np.asarray(values[k]) for k in
+                           ("candidates", "candidate_means", "reached_mean"))))
+  return out
 
 
 def plot(result: dict, path: str) -> str:
@@ -229,7 +263,7 @@ def main(argv=None) -> int:
   values = jax.jit(jax.vmap(lambda p, k: seed_goals(
       run, p, k, goals, args.episodes, args.candidates, args.deterministic)))(params, keys)
   values = {k: np.asarray(v) for k, v in values.items()}
-  summary = summary_values(values)
+  summary = summary_values(values, latents_are_goals(run.objective.spec))
   prior = run.objective.spec.prior
   result = {"run": os.path.abspath(args.run),
             "label": common.run_label(run.spec, directory=run.directory),

@@ -18,7 +18,9 @@ settings over the env's row), ``--options`` (objective options over the row's, e
 the paper's protocol: ``--compare``, ``--progress`` and ``--plot`` name a run's PPO settings that
 are not the original's (``blx.training.config.off_row``, from its provenance's record of every
 setting it trained with, else its ``config.json``: ``trained_off_row``), but for how its return
-episodes act (``eval_actions``), which the paper's metrics do not depend on.
+episodes act (``eval_actions``), which the paper's metrics do not depend on; and its env edits and
+objective options that are not the row's (``desc_off_row``: "env global_options.iterations 4 (the
+original's: 1)").
 Below its verdicts ``--compare`` splits each MI-max row's MI gap into its H(s) and H(s|z) parts
 (``mi_parts``). ``--compare DIR ... --plot PNG`` also draws the rows' final evaluations beside the
 paper's values (``draw_compare``), ``--progress DIR ... --plot PNG`` their curves
@@ -218,13 +220,51 @@ VERDICT_HEADER = ["| env | algorithm | metric | blx (seeds) | paper (10) | Welch
 
 
 def trained_off_row(name: str, config: dict) -> dict[str, tuple]:
-  """``off_row`` of the run ``name`` (as ``logged`` names it): every setting it trained with that
-  is not its row's, from its provenance's record where it has one, else from its config.json
+  """``off_row`` of the run ``name`` (as ``logged`` names it): every PPO setting it trained with
+  that is not its row's, from its provenance's record where it has one, else from its config.json
   (``runs.settings_as_trained``), so that a setting taken from a default that moved since is
   named too; but for those of the return episodes alone (``eval_actions``), which the paper's
-  metrics, the tables' only ones, do not depend on."""
-  return off_row(config["env"], runs.settings_as_trained(config.get("ppo"), run_segments(name)),
-                 returns=False)
+  metrics, the tables' only ones, do not depend on. Then its env edits and objective options that
+  are not the row's (``desc_off_row``)."""
+  ppo = off_row(config["env"], runs.settings_as_trained(config.get("ppo"), run_segments(name)),
+                returns=False)
+  return {**ppo, **desc_off_row(config)}
+
+
+_UNSET = "unset"
+
+
+def desc_off_row(config: dict) -> dict[str, tuple]:
+  """The env edits (``--env-edits``) and objective options (``--options``) of a run's
+  ``config.json`` that are not its row's: ``{"env PATH": (the run's, the env's), "objective KEY":
+  (the run's, the row's)}``. The env's value is that of its registered desc, or the composer's
+  default for a global option the desc leaves out; the row's option is the one ``specs`` sets,
+  else the preset's default. "unset" stands for a value neither has. An edit or option that
+  restates the original's is not named; a run of an objective no row trains names none."""
+  from blx import envs, objectives
+  from blx.envs.composer import GLOBAL_OPTIONS
+  same = lambda a, b: json.dumps(a, sort_keys=True) == json.dumps(b, sort_keys=True)
+  out = {}
+  edits = (config.get("env_params") or {}).get("edits") or {}
+  if edits:
+    desc = envs.get_desc(config["env"])
+    for path, value in edits.items():
+      node, keys = desc, path.split(".")
+      for key in keys:
+        node = node.get(key, _UNSET) if isinstance(node, dict) else _UNSET
+      if node == _UNSET and keys[0] == "global_options" and len(keys) == 2:
+        node = GLOBAL_OPTIONS.get(keys[1], _UNSET)
+      if not same(value, node):
+        out[f"env {path}"] = (value, node)
+  row = next((spec["options"] for spec in specs(1, env=config["env"]).values()
+              if config["objective"] in spec["objective"]), None)
+  if row is not None:
+    original = {**objectives.option_defaults(config["objective"]), **row}
+    given = config.get("objective_options") or {}
+    for key in sorted(given):
+      if not same(given[key], original.get(key, _UNSET)):
+        out[f"objective {key}"] = (given[key], original.get(key, _UNSET))
+  return out
 
 
 def options_line(name: str, changed: dict[str, tuple]) -> list[str]:
@@ -333,8 +373,8 @@ MI_PARTS_HEADER = [
 def compare(*directories: str) -> str:
   """The verdict table for every ``eval.json`` under the directories; files at the same path under
   several directories are parts of one row (``merge``). Below it, for the MI-max rows, where their
-  MI departs from the paper's, split into H(s) and H(s|z) (``mi_parts``); then each row's PPO
-  settings that are not the original's (``options_line``, from the ``config.json`` beside its
+  MI departs from the paper's, split into H(s) and H(s|z) (``mi_parts``); then each row's
+  settings that are not the original's (PPO's, env edits, objective options: ``options_line``, from the ``config.json`` beside its
   ``eval.json``). Where the table holds several evaluations of one env's row (a rerun beside the
   first run, say), each of their rows names its file. Raises ValueError for a directory that holds
   no ``eval.json``, and for files at one path that are not parts of one row, naming them."""
@@ -595,11 +635,29 @@ def progress(*directories: str) -> str:
   return "\n".join(out)
 
 
+def final_point(name: str, key: str, window: str) -> list[float]:
+  """The per-seed values of ``key`` in ``window`` ("Braxlines' window" or "blx's window") of the
+  finished run ``name``'s final evaluation (its ``eval.json``, as ``logged`` names the run);
+  ``[]`` where it has none, or where it is an LGR on other goals than the paper's."""
+  in_directory = os.path.exists(os.path.join(name, "metrics.csv"))  # else a committed row's
+  path = os.path.join(name, "eval.json") if in_directory else name + "_eval.json"
+  if not os.path.exists(path):
+    return []
+  with open(path) as f:
+    evaluation = json.load(f)
+  if key in ("eval/lgr",) and not papers_goals(evaluation):
+    return []
+  suffix = "_braxlines" if window.startswith("Braxlines'") else ""
+  return list(evaluation.get("per_seed", {}).get(key + suffix, []))
+
+
 def draw_progress(path: str, *directories: str) -> list[str]:
   """``path``, a PNG: a row of panels per run with a paper row (``logged``), one per metric of the
   paper's table, each the run's curve (mean ± std over seeds, from ``metrics.csv``) over its whole
   budget of env steps, beside the paper's final value (mean ± std): how far a row has come, and
-  where it stands against the paper. Returns the panels' titles, row by row."""
+  where it stands against the paper. A finished run's final evaluation (``final_point``: the
+  protocol's sizes, which the curve's evaluations during training need not have) is a marker at
+  its last step. Returns the panels' titles, row by row."""
   import matplotlib
   matplotlib.use("Agg")
   import matplotlib.pyplot as plt
@@ -619,16 +677,17 @@ def draw_progress(path: str, *directories: str) -> list[str]:
       changed = [f"{key} {value}" for key, (value, _) in trained_off_row(name, config).items()]
       title += f", option {', '.join(changed)}" if changed else ""
       panels.append((title + ("" if finished else ", under training"),
-                     _budget(rows) or 0.0, curves))
+                     _budget(rows) or 0.0, curves, name if finished else None))
   if not panels:
     raise ValueError(f"nothing to draw under {', '.join(directories)}: no run there logged the "
                      "paper's metrics of a row of its tables (train with --eval-metrics)")
   titles = []
-  columns = max(len(curves) for _, _, curves in panels)
+  columns = max(len(curves) for _, _, curves, _ in panels)
   fig, axes = plt.subplots(len(panels), columns, figsize=(max(5.2 * columns, 7.0),
                                                           3.2 * len(panels) + 0.6),
                            squeeze=False, layout="constrained")
-  for row_axes, (title, budget, curves) in zip(axes, panels):
+  finals = False
+  for row_axes, (title, budget, curves, finished) in zip(axes, panels):
     for ax, (key, mean, std, window, curve, other) in zip(row_axes, curves):
       for (steps, m, d), alpha, label in ((curve, 1.0, "blx (mean ± std over seeds)"),
                                           (other, 0.35, None)):
@@ -638,6 +697,13 @@ def draw_progress(path: str, *directories: str) -> list[str]:
                         color="C0", alpha=0.2 * alpha)
       ax.axhline(mean, color="C3", linestyle="--", label="the paper's final value (mean ± std)")
       ax.axhspan(mean - std, mean + std, color="C3", alpha=0.1)
+      final = final_point(finished, key, window) if finished and curve[0] else []
+      if final:
+        finals = True
+        final_mean, final_std = mean_std(final)
+        ax.errorbar([curve[0][-1] / 1e6], [final_mean], yerr=[final_std], fmt="D",
+                    color="k", ms=6, capsize=3, zorder=5,
+                    label="blx's final evaluation, eval.json (mean ± std over seeds)")
       ax.set_xlim(0, max([budget] + curve[0] + other[0]) / 1e6 * 1.02)
       faded = "; faded: blx's old goals, not the paper's" if other[0] else ""
       titles.append(f"{title}; {window}{faded}")
@@ -649,6 +715,10 @@ def draw_progress(path: str, *directories: str) -> list[str]:
     for ax in row_axes[len(curves):]:
       ax.axis("off")
   axes[0][0].legend(fontsize=7, loc="best")
+  if finals:
+    fig.supxlabel("The curves: the evaluations during training, at the sizes the run logged "
+                  "them with; the black marker: the final evaluation (eval.json), at the paper's "
+                  "protocol's.", fontsize=8)
   fig.suptitle(textwrap.fill("The paper's rows during training: blx's curves against the "
                              "paper's final values", 70 if columns == 1 else 120), fontsize=10)
   fig.savefig(path, dpi=110)

@@ -15,7 +15,8 @@ from blx.objectives.posteriors import (Posterior, categorical_posterior, gaussia
                                        identity_posterior)
 from blx.objectives.presets import (adversarial_objective, airl, cdiayn, diayn, diayn_full, fairl,
                                     fixed_gcrl, gail, gail2, gcrl, list_objectives, make,
-                                    mimax_objective, mle, options_of, resolve_indices)
+                                    mimax_objective, mle, option_defaults, options_of,
+                                    resolve_indices)
 from blx.objectives.priors import (Prior, categorical_prior, deterministic_prior,
                                    uniform_prior)
 from blx.objectives.specs import DminSpec, MimaxSpec, Spec, TaskSpec
@@ -25,7 +26,7 @@ from blx.objectives.targets import Target, multimode_gaussian, target_from_sampl
 __all__ = [
     "Objective", "Transition", "task", "for_agent",
     "gcrl", "fixed_gcrl", "cdiayn", "diayn", "diayn_full", "gail", "gail2", "airl", "fairl", "mle",
-    "make", "list_objectives", "options_of", "resolve_indices",
+    "make", "list_objectives", "options_of", "option_defaults", "resolve_indices",
     "mimax_objective", "adversarial_objective",
     "Posterior", "identity_posterior", "gaussian_posterior", "categorical_posterior",
     "MimaxSpec", "DminSpec", "TaskSpec", "Spec",

@@ -38,8 +38,8 @@ from blx.objectives.targets import Target, multimode_gaussian
 from blx.options import check_names, keyword_names
 
 __all__ = ["gcrl", "fixed_gcrl", "cdiayn", "diayn", "diayn_full", "gail", "gail2", "airl", "fairl",
-           "mle", "task", "make", "list_objectives", "options_of", "resolve_indices",
-           "mimax_objective", "adversarial_objective"]
+           "mle", "task", "make", "list_objectives", "options_of", "option_defaults",
+           "resolve_indices", "mimax_objective", "adversarial_objective"]
 
 Indices = Sequence[int] | str | Sequence[str] | None
 
@@ -573,6 +573,12 @@ def list_objectives() -> list[str]:
 def options_of(name: str) -> list[str]:
   """The keyword options of preset ``name``."""
   return sorted(inspect.signature(_preset(name)).parameters)
+
+
+def option_defaults(name: str) -> dict[str, Any]:
+  """The keyword options of preset ``name`` that have a default, with it."""
+  return {key: p.default for key, p in inspect.signature(_preset(name)).parameters.items()
+          if p.default is not inspect.Parameter.empty}
 
 
 def _preset(name: str) -> Callable[..., Objective]:

@@ -160,3 +160,109 @@ def test_a_directory_without_one_gcrl_run_is_refused_naming_why(tmp_path):
   bare = _run_dir(tmp_path / "bare", "gcrl", "ant", [(1e6, 10.0, {"eval/mi": [0.1, 0.2, 0.3]})])
   with pytest.raises(ValueError, match="no evaluation with H\\(s\\|z\\)"):
     grm.run_row(str(bare))
+
+
+def test_a_prediction_scores_the_states_it_names_without_fitting(tmp_path, model, capsys):
+  out = tmp_path / "predicted.json"
+  grm.main([os.path.join(PAPER_DIR, "brax_ant_5ms", "gcrl_eval.json"), "--predict",
+            "cap:1.5:0.3", "--predict", "fraction:0.6:0.4", "--steps", "200", "--draws", "2",
+            "--out", str(out)])
+  written = json.loads(out.read_text())
+  # the protocol's sizes of a finished row (10 x 10), at the steps asked for
+  assert (written["latents"], written["samples_per_latent"]) == (10, 10 * 200)
+  # the same states the model's own call scores (the fixture draws 10 goals x 2,000 states too)
+  for p, (form, reach, sigma) in zip(written["predictions"],
+                                     (("cap", 1.5, 0.3), ("fraction", 0.6, 0.4))):
+    assert (p["form"], p["reach"], p["sigma"]) == (form, reach, sigma)
+    h, hz = model(reach, sigma, form)
+    assert (p["entropy"], p["conditional_entropy"]) == pytest.approx((h, hz), abs=1e-5)
+    assert p["mi"] == pytest.approx(h - hz, abs=1e-5)
+  # beside the rows' measured values, and no fit
+  assert set(written["rows"]) == {"paper", "blx"} and "fits" not in written["rows"]["blx"]
+  printed = capsys.readouterr().out
+  assert "| cap at 1.5, sigma 0.3 |" in printed and "| 0.6 of each goal, sigma 0.4 |" in printed
+  assert "| blx, measured |" in printed and "| row |" not in printed
+
+
+@pytest.mark.parametrize("given,message", [
+    ("cap:1.5", "give FORM:REACH:SIGMA"),
+    ("clip:1.5:0.3", "the form 'clip' is not one of cap, fraction"),
+    ("cap:fast:0.3", "must be numbers"),
+    ("cap:1.5:0", "SIGMA more than 0"),
+])
+def test_a_bad_prediction_is_named(given, message, capsys):
+  with pytest.raises(SystemExit):
+    grm.main(["--predict", given])
+  assert message in capsys.readouterr().err
+
+
+def test_measured_means_read_each_goal_off_the_skills_nearest_it():
+  candidates = np.array([[0.0, 0.0], [2.0, 0.0], [0.0, 2.0]])
+  means = np.array([[0.1, 0.0], [1.5, 0.0], [0.0, 1.0]])
+  goals = np.array([[1.8, 0.1], [2.0, 0.0], [0.0, 1.5]])
+  np.testing.assert_allclose(grm.measured_means(goals, candidates, means),
+                             [[1.5, 0.0], [1.5, 0.0], [0.0, 1.0]])
+  # two neighbours, by inverse distance: (0, 1.5) lies 0.5 from (0, 2) and 1.5 from the origin
+  np.testing.assert_allclose(grm.measured_means(goals[2:], candidates, means, 2),
+                             [[0.75 * 0.0 + 0.25 * 0.1, 0.75 * 1.0]])
+  # a goal on a candidate takes that candidate's mean whole, however many neighbours
+  np.testing.assert_allclose(grm.measured_means(goals[1:2], candidates, means, 3), [[1.5, 0.0]])
+
+
+def test_skills_measured_to_run_a_cap_score_what_the_cap_does(model):
+  # a dense grid of measured skills that reach their goals up to 1.5: read back per goal, they
+  # give the model's own cap at 1.5, and a seed of slower skills gives less H(s)
+  axis = np.linspace(-2.5, 2.5, 41)
+  candidates = np.stack(np.meshgrid(axis, axis), -1).reshape(-1, 2)
+  reaching = {"per_seed": {
+      "0": {"candidates": candidates.tolist(),
+            "candidate_means": grm.reached(candidates, 1.5, "cap").tolist()},
+      "1": {"candidates": candidates.tolist(),
+            "candidate_means": grm.reached(candidates, 0.5, "cap").tolist()}}}
+  out = grm.measured(model, reaching, 0.3)
+  h, hz = model(1.5, 0.3, "cap")
+  assert out["seeds"] == ["0", "1"]
+  assert out["entropy"][0] == pytest.approx(h, abs=0.01)
+  assert out["conditional_entropy"][0] == pytest.approx(hz, abs=1e-4)
+  assert out["entropy"][1] < out["entropy"][0] - 0.2
+  assert out["mi"][0] == pytest.approx(out["entropy"][0] - out["conditional_entropy"][0])
+  with pytest.raises(ValueError, match="3 dimensions"):
+    grm.measured(model, {"per_seed": {"0": {"candidates": [[0.0, 0.0, 0.0]],
+                                            "candidate_means": [[0.0, 0.0, 0.0]]}}}, 0.3)
+
+
+@pytest.mark.parametrize("argv,message", [
+    (["--measured", "reaching.json"], "--measured needs EVAL_JSON"),
+    (["ROW", "--measured", "reaching.json", "--predict", "cap:1:0.3"], "give one"),
+    (["ROW", "--measured", "no_such.json"], "No such file"),
+    (["ROW", "--neighbours", "0"], "--neighbours 0: give 1 or more"),
+])
+def test_a_bad_measured_reading_is_named(argv, message, capsys):
+  row = os.path.join(PAPER_DIR, "brax_ant_5ms", "gcrl_eval.json")
+  with pytest.raises(SystemExit):
+    grm.main([row if a == "ROW" else a for a in argv])
+  assert message in capsys.readouterr().err
+
+
+def test_the_measured_reading_sets_each_seed_beside_the_evaluations(tmp_path, capsys):
+  row = os.path.join(PAPER_DIR, "brax_ant_5ms", "gcrl_eval.json")
+  axis = np.linspace(-2.5, 2.5, 5)
+  candidates = np.stack(np.meshgrid(axis, axis), -1).reshape(-1, 2)
+  seed = {"candidates": candidates.tolist(),
+          "candidate_means": grm.reached(candidates, 1.0, "cap").tolist()}
+  reaching = tmp_path / "goal_reaching.json"
+  reaching.write_text(json.dumps({"per_seed": {str(s): seed for s in range(10)}}))
+  out = tmp_path / "measured.json"
+  grm.main([row, "--measured", str(reaching), "--steps", "50", "--draws", "1", "--out", str(out)])
+  reading = json.loads(out.read_text())["measured"]
+  assert len(reading["entropy"]) == 10 and reading["neighbours"] == 1
+  # sigma fitted to the row's H(s|z), so the model's H(s|z) is the row's
+  with open(row) as f:
+    hz = json.load(f)["summary"]["eval/conditional_entropy"]["mean"]
+  assert np.mean(reading["conditional_entropy"]) == pytest.approx(hz, abs=0.01)
+  printed = capsys.readouterr().out
+  assert "| mean |" in printed and "H(s), model less evaluation:" in printed
+  reaching.write_text(json.dumps({"per_seed": {"0": seed, "1": seed}}))
+  with pytest.raises(SystemExit):
+    grm.main([row, "--measured", str(reaching), "--steps", "50", "--draws", "1"])
+  assert "the evaluation has 10 seeds, the measurement 2" in capsys.readouterr().err

@@ -66,6 +66,50 @@ def test_a_latents_spread_splits_into_within_and_between_episodes():
   np.testing.assert_allclose(summary["spread_between"], [[0.5]])
 
 
+def test_following_reads_how_far_and_which_way_skills_go_toward_their_goals():
+  goals = np.array([[3.0, 4.0], [0.0, 2.0], [-1.0, 0.0]])
+  # half of each goal, the same way: share 0.5, cosine 1, the farthest mean 2.5 from the origin
+  half = goal_reaching.following(goals, goals / 2, np.array([[1.0, 0.0], [0.0, -3.0]]))
+  np.testing.assert_allclose(half["farthest"], 2.5)
+  np.testing.assert_allclose(half["goal_share"], 0.5)
+  np.testing.assert_allclose(half["goal_cosine"], 1.0)
+  np.testing.assert_allclose(half["reached_norm"], 2.0)
+  # turned a right angle (same speeds): the share stays, the cosine is 0; backwards, -1
+  turned = goals[:, ::-1] * np.array([1.0, -1.0])
+  np.testing.assert_allclose(goal_reaching.following(goals, turned, goals)["goal_cosine"], 0.0,
+                             atol=1e-12)
+  np.testing.assert_allclose(goal_reaching.following(goals, -goals, goals)["goal_cosine"], -1.0)
+  # the share is a median: one skill that runs past its goal does not move it
+  ran = goals * np.array([[0.8], [0.9], [3.0]])
+  np.testing.assert_allclose(goal_reaching.following(goals, ran, goals)["goal_share"], 0.9)
+  # a skill standing still (or a goal at the origin) has no direction: share and cosine 0
+  still = goal_reaching.following(goals[:1], np.zeros((1, 2)), goals[:1])
+  assert float(still["goal_share"]) == 0.0 and float(still["goal_cosine"]) == 0.0
+  # over seeds: the leading axes are kept
+  seeds = goal_reaching.following(np.stack([goals, goals]), np.stack([goals / 2, goals]),
+                                  np.zeros((2, 1, 2)))
+  np.testing.assert_allclose(seeds["goal_share"], [0.5, 1.0])
+  np.testing.assert_allclose(seeds["farthest"], [2.5, 5.0])
+
+
+def test_following_is_summarised_only_where_the_latents_are_goals():
+  assert goal_reaching.latents_are_goals(objectives.gcrl(obs_indices=(0, 1)).spec)
+  assert not goal_reaching.latents_are_goals(objectives.cdiayn(obs_indices=(0, 1)).spec)
+  assert not goal_reaching.latents_are_goals(
+      objectives.diayn(num_skills=4, obs_indices=(0, 1)).spec)
+  goals = jnp.array([[2.0], [-2.0]])
+  values = goal_reaching.decompose(jnp.stack([_episodes(1.0), _episodes(-1.0)]), goals,
+                                   jnp.stack([_episodes(1.0), _episodes(-1.0)]))
+  values = {**values, "candidates": goals}
+  values = {k: np.asarray(v)[None] for k, v in values.items()}
+  assert set(goal_reaching.summary_values(values)) == set(goal_reaching.SUMMARY)
+  summary = goal_reaching.summary_values(values, goals_are_latents=True)
+  assert set(summary) == set(goal_reaching.SUMMARY + goal_reaching.FOLLOWING)
+  np.testing.assert_allclose(summary["goal_share"], [0.5])
+  np.testing.assert_allclose(summary["goal_cosine"], [1.0])
+  np.testing.assert_allclose(summary["farthest"], [1.0])
+
+
 class _Limited:
   """Its one observed dim is the first action times 2.5, held within [-1.5, 1.5]: nothing beyond
   1.5 in magnitude can be reached."""
@@ -121,6 +165,12 @@ def test_a_true_policy_loses_only_the_goals_beyond_its_reach_and_a_mirrored_one_
   expected = np.mean(np.abs(goals + np.clip(goals, -1.5, 1.5)))
   np.testing.assert_allclose(mirrored["lgr"], expected, atol=1e-5)
   np.testing.assert_allclose(mirrored["inference_excess"], expected - floor, atol=0.05)
+  # the true policy runs each goal's way, as far as 1.5; the mirrored one the opposite way
+  read = lambda out: goal_reaching.following(
+      *(np.asarray(out[k]) for k in ("candidates", "candidate_means", "reached_mean")))
+  np.testing.assert_allclose(read(true)["farthest"], 1.5, atol=1e-5)
+  np.testing.assert_allclose(read(true)["goal_cosine"], 1.0, atol=1e-5)
+  np.testing.assert_allclose(read(mirrored)["goal_cosine"], -1.0, atol=1e-5)
 
 
 def test_plot_draws_from_the_json(tmp_path):

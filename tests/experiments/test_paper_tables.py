@@ -497,6 +497,58 @@ def test_a_row_trained_with_a_setting_not_the_originals_is_named_as_an_option(tm
                             "halfcheetah gail; blx's window"]
 
 
+def test_a_row_trained_with_an_env_edit_or_an_objective_option_is_named_as_an_option(tmp_path):
+  key = "eval/mi"
+  runs_ = {}
+  for name, edits, options in (
+      ("iterations", {"global_options.iterations": 4}, {}),  # the ant's physics: 1 by default
+      ("restated", {"global_options.substeps": 10}, {"spectral_norm": True}),  # the row's own
+      ("unsn", {}, {"spectral_norm": False, "num_skills": 8})):  # the row's SN; 8: the default
+    run = _run_dir(tmp_path / name / "mimax" / "objective=diayn", "diayn", "ant",
+                   [(1e6, 10.0, {key: [0.4, 0.5, 0.6]})])
+    config = json.loads((run / "config.json").read_text())
+    config.update(env_params={"edits": edits} if edits else {}, objective_options=options)
+    (run / "config.json").write_text(json.dumps(config))
+    runs_[name] = (run, config)
+  assert paper_tables.desc_off_row(runs_["iterations"][1]) == {
+      "env global_options.iterations": (4, 1)}
+  assert paper_tables.desc_off_row(runs_["restated"][1]) == {}
+  assert paper_tables.desc_off_row(runs_["unsn"][1]) == {"objective spectral_norm": (False, True)}
+  # an edit where the env has nothing, and an option the preset does not name, read "unset"
+  novel = {**runs_["restated"][1], "env_params": {"edits": {"components.agent1.pos": [0, 0, 1]}},
+           "objective_options": {"made_up": 1}}
+  assert paper_tables.desc_off_row(novel) == {"env components.agent1.pos": ([0, 0, 1], "unset"),
+                                              "objective made_up": (1, "unset")}
+  text = paper_tables.progress(str(tmp_path))
+  assert (f"{runs_['iterations'][0]}: settings not the original's: env global_options.iterations "
+          "4 (the original's: 1). An option's result, not the paper's row.") in text
+  assert (f"{runs_['unsn'][0]}: settings not the original's: objective spectral_norm False (the "
+          "original's: True).") in text
+  assert f"{runs_['restated'][0]}: settings" not in text
+  titles = paper_tables.draw_progress(str(tmp_path / "rows.png"), str(tmp_path))
+  assert sorted(titles) == [
+      "ant diayn, option env global_options.iterations 4, under training; blx's window",
+      "ant diayn, option objective spectral_norm False, under training; blx's window",
+      "ant diayn, under training; blx's window"]
+
+
+def test_a_finished_runs_final_evaluation_is_read_for_its_marker(tmp_path):
+  run = _run_dir(tmp_path / "run", "gcrl", "ant", [(1e6, 10.0, {"eval/mi": [0.4, 0.5, 0.6]})])
+  assert paper_tables.final_point(str(run), "eval/mi", "blx's window") == []  # not finished
+  evaluation = {"objective": "gcrl", "env": "ant", "seeds": [0, 1, 2],
+                "per_seed": {"eval/mi": [1.0, 1.1, 1.2], "eval/mi_braxlines": [0.9, 1.0, 1.1],
+                             "eval/lgr": [2.0, 2.1, 2.2]}}
+  (run / "eval.json").write_text(json.dumps(evaluation))
+  assert paper_tables.final_point(str(run), "eval/mi", "blx's window") == [1.0, 1.1, 1.2]
+  assert paper_tables.final_point(str(run), "eval/mi", "Braxlines' window") == [0.9, 1.0, 1.1]
+  # an LGR on blx's old goals is no point beside the paper's; on the paper's goals it is
+  assert paper_tables.final_point(str(run), "eval/lgr", "blx's window") == []
+  evaluation["evaluated_on"] = {"lgr_goals": "braxlines"}
+  (tmp_path / "gcrl_eval.json").write_text(json.dumps(evaluation))  # a committed row's
+  assert paper_tables.final_point(str(tmp_path / "gcrl"), "eval/lgr", "blx's window") == [
+      2.0, 2.1, 2.2]
+
+
 def test_progress_names_runs_it_cannot_read_against_the_paper(tmp_path, monkeypatch, capsys):
   _run_dir(tmp_path / "push", "task", "ant_push", [(1e6, 10.0, {"eval/episode_score": [1, 2]})],
            seeds=(0, 1))

@@ -102,6 +102,15 @@ def test_preset_defaults_follow_braxlines():
                              rtol=0.1)  # modes (+-4, 0)
 
 
+def test_option_defaults_are_the_values_a_preset_builds_with_when_not_given():
+  defaults = objectives.option_defaults("diayn")
+  assert set(defaults) == set(objectives.options_of("diayn"))
+  assert defaults["num_skills"] == objectives.diayn(obs_indices=(0, 1)).latent_size == 8
+  assert objectives.option_defaults("gail")["gradient_penalty_weight"] == 0.0
+  with pytest.raises(ValueError, match="valid objectives are"):
+    objectives.option_defaults("dyain")
+
+
 def test_target_seed_draws_the_default_targets_samples():
   """The seed picks which 250 samples stand for the target: seed 0 puts 131 at (+4, 0), seed 3
   puts 120 there (more at (-4, 0)); the same seed gives the same samples, for mle too."""
