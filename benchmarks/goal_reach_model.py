@@ -372,6 +372,10 @@ def main(argv=None):
     try:
       with open(args.measured) as f:
         reaching = json.load(f)
+      evaluated = [str(seed) for seed in row.get("seeds", [])]
+      if evaluated and list(reaching["per_seed"]) != evaluated:
+        raise ValueError(f"it measured seeds {list(reaching['per_seed'])}, the evaluation's are "
+                         f"{evaluated}: measure the evaluation's seeds, in its order")
       sigma = fit_sigma(model, rows["blx"][0]["eval/conditional_entropy"])
       out["measured"] = {"sigma": sigma, "neighbours": args.neighbours,
                          **measured(model, reaching, sigma, args.neighbours)}

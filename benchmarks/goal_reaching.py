@@ -149,14 +149,14 @@ FOLLOWING = ("farthest", "goal_share", "goal_cosine", "reached_norm")
 SUMMARY = DECOMPOSED + ("spread_within", "spread_between")
 
 
-def summary_values(values: dict, goals_are_latents: bool = False) -> dict:
+def summary_values(values: dict, latent_goals: bool = False) -> dict:
   """The ``SUMMARY`` values per seed from ``seed_goals``' (vmapped over seeds): the spreads are the
-  candidates' mean ``within_std`` and ``between_std``; with ``goals_are_latents`` (GCRL), also the
+  candidates' mean ``within_std`` and ``between_std``; with ``latent_goals`` (GCRL), also the
   ``FOLLOWING`` values."""
   out = {**{k: values[k] for k in DECOMPOSED},
          "spread_within": values["candidate_within_std"].mean(-2),
          "spread_between": values["candidate_between_std"].mean(-2)}
-  if goals_are_latents:
+  if latent_goals:
     out.update(following(*(np.asarray(values[k]) for k in
                            ("candidates", "candidate_means", "reached_mean"))))
   return out

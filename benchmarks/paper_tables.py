@@ -374,8 +374,8 @@ def compare(*directories: str) -> str:
   """The verdict table for every ``eval.json`` under the directories; files at the same path under
   several directories are parts of one row (``merge``). Below it, for the MI-max rows, where their
   MI departs from the paper's, split into H(s) and H(s|z) (``mi_parts``); then each row's
-  settings that are not the original's (PPO's, env edits, objective options: ``options_line``, from the ``config.json`` beside its
-  ``eval.json``). Where the table holds several evaluations of one env's row (a rerun beside the
+  settings that are not the original's (PPO's, env edits, objective options: ``options_line``,
+  from the ``config.json`` beside its ``eval.json``). Where the table holds several evaluations of one env's row (a rerun beside the
   first run, say), each of their rows names its file. Raises ValueError for a directory that holds
   no ``eval.json``, and for files at one path that are not parts of one row, naming them."""
   evaluations, notes = compared(*directories)
@@ -645,7 +645,7 @@ def final_point(name: str, key: str, window: str) -> list[float]:
     return []
   with open(path) as f:
     evaluation = json.load(f)
-  if key in ("eval/lgr",) and not papers_goals(evaluation):
+  if key == "eval/lgr" and not papers_goals(evaluation):
     return []
   suffix = "_braxlines" if window.startswith("Braxlines'") else ""
   return list(evaluation.get("per_seed", {}).get(key + suffix, []))
@@ -687,7 +687,7 @@ def draw_progress(path: str, *directories: str) -> list[str]:
                                                           3.2 * len(panels) + 0.6),
                            squeeze=False, layout="constrained")
   finals = False
-  for row_axes, (title, budget, curves, finished) in zip(axes, panels):
+  for row_axes, (title, budget, curves, final_of) in zip(axes, panels):
     for ax, (key, mean, std, window, curve, other) in zip(row_axes, curves):
       for (steps, m, d), alpha, label in ((curve, 1.0, "blx (mean ± std over seeds)"),
                                           (other, 0.35, None)):
@@ -697,7 +697,7 @@ def draw_progress(path: str, *directories: str) -> list[str]:
                         color="C0", alpha=0.2 * alpha)
       ax.axhline(mean, color="C3", linestyle="--", label="the paper's final value (mean ± std)")
       ax.axhspan(mean - std, mean + std, color="C3", alpha=0.1)
-      final = final_point(finished, key, window) if finished and curve[0] else []
+      final = final_point(final_of, key, window) if final_of and curve[0] else []
       if final:
         finals = True
         final_mean, final_std = mean_std(final)

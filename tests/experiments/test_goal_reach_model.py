@@ -265,4 +265,12 @@ def test_the_measured_reading_sets_each_seed_beside_the_evaluations(tmp_path, ca
   reaching.write_text(json.dumps({"per_seed": {"0": seed, "1": seed}}))
   with pytest.raises(SystemExit):
     grm.main([row, "--measured", str(reaching), "--steps", "50", "--draws", "1"])
+  assert "it measured seeds ['0', '1'], the evaluation's are ['0'," in capsys.readouterr().err
+  # without the evaluation's seed numbers, the counts must still agree
+  with open(row) as f:
+    anonymous = {k: v for k, v in json.load(f).items() if k != "seeds"}
+  (tmp_path / "eval.json").write_text(json.dumps(anonymous))
+  with pytest.raises(SystemExit):
+    grm.main([str(tmp_path / "eval.json"), "--measured", str(reaching), "--steps", "50",
+              "--draws", "1"])
   assert "the evaluation has 10 seeds, the measurement 2" in capsys.readouterr().err

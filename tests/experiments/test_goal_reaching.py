@@ -103,7 +103,7 @@ def test_following_is_summarised_only_where_the_latents_are_goals():
   values = {**values, "candidates": goals}
   values = {k: np.asarray(v)[None] for k, v in values.items()}
   assert set(goal_reaching.summary_values(values)) == set(goal_reaching.SUMMARY)
-  summary = goal_reaching.summary_values(values, goals_are_latents=True)
+  summary = goal_reaching.summary_values(values, latent_goals=True)
   assert set(summary) == set(goal_reaching.SUMMARY + goal_reaching.FOLLOWING)
   np.testing.assert_allclose(summary["goal_share"], [0.5])
   np.testing.assert_allclose(summary["goal_cosine"], [1.0])
