@@ -170,14 +170,15 @@ def _bisect(f, target: float, lo: float, hi: float, iterations: int = 20) -> flo
   return 0.5 * (lo + hi)
 
 
-# Up to obs_scale / 5 the states stay within the estimator's range (5 sigma) and H(s|z) grows with
-# sigma; beyond, states fall outside it and H(s|z) shrinks again.
-_SIGMAS = lambda model: (1e-3, model.obs_scale / 5)
+def _sigmas(model: Model) -> tuple[float, float]:
+  """The sigmas a fit searches: up to obs_scale / 5 the states stay within the estimator's range
+  (5 sigma) and H(s|z) grows with sigma; beyond, states fall outside it and H(s|z) shrinks again."""
+  return 1e-3, model.obs_scale / 5
 
 
 def fit_sigma(model: Model, conditional_entropy: float, form: str = "cap") -> float:
   """The sigma whose skills, at no reach, score ``conditional_entropy``."""
-  return _bisect(lambda s: model(0.0, s, form)[1], conditional_entropy, *_SIGMAS(model))
+  return _bisect(lambda s: model(0.0, s, form)[1], conditional_entropy, *_sigmas(model))
 
 
 def fit(model: Model, entropy: float, conditional_entropy: float, form: str = "cap") -> dict:
@@ -185,7 +186,7 @@ def fit(model: Model, entropy: float, conditional_entropy: float, form: str = "c
   it, scores ``entropy``. ``reach_bound`` says where the target lies beyond the model's range
   ("above": every goal reached whole still scores less H(s); "below": skills at the origin
   already score more). The same for ``sigma_bound`` and H(s|z)."""
-  sigmas = _SIGMAS(model)
+  sigmas = _sigmas(model)
   sigma = fit_sigma(model, conditional_entropy, form)
   reaches = (0.0, model.most_reach(form))
   reach = _bisect(lambda r: model(r, sigma, form)[0], entropy, *reaches)

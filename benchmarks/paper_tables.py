@@ -502,12 +502,13 @@ def draw_compare(path: str, *directories: str) -> dict[str, list[str]]:
   return drawn
 
 
-def logged(*directories: str) -> list[tuple[str, dict | str, list[dict], bool]]:
+def logged(*directories: str) -> list[tuple[str, dict | str, list[dict], str | None]]:
   """Every run under the directories that logged metrics during training: ``(name, config,
-  metrics.csv rows, finished)``, in name order. A run directory's ``metrics.csv`` goes with its
-  ``config.json`` and ``eval.json``; a committed row's ``NAME_metrics.csv`` (as under
-  ``benchmarks/paper/``) with ``NAME_config.json`` and ``NAME_eval.json``. ``config`` is the run's
-  config (its ``env`` and ``objective``), or a string saying why it cannot be read."""
+  metrics.csv rows, final)``, in name order; ``final``, the path of its ``eval.json`` where it
+  finished, else None. A run directory's ``metrics.csv`` goes with its ``config.json`` and
+  ``eval.json``; a committed row's ``NAME_metrics.csv`` (as under ``benchmarks/paper/``) with
+  ``NAME_config.json`` and ``NAME_eval.json``. ``config`` is the run's config (its ``env`` and
+  ``objective``), or a string saying why it cannot be read."""
   paths = sorted({path for directory in directories for path in
                   glob.glob(os.path.join(directory, "**", "*metrics.csv"), recursive=True)})
   if not paths:
@@ -528,8 +529,8 @@ def read_config(prefix: str) -> dict | str:
           f"{prefix}config.json is not a blx run config (it names no env and objective)")
 
 
-def logged_run(path: str) -> tuple[str, dict | str, list[dict], bool]:
-  """One run's ``(name, config, metrics.csv rows, finished)`` as ``logged`` gives them, from the
+def logged_run(path: str) -> tuple[str, dict | str, list[dict], str | None]:
+  """One run's ``(name, config, metrics.csv rows, final)`` as ``logged`` gives them, from the
   path of its ``metrics.csv`` or ``NAME_metrics.csv``."""
   prefix = path[:-len("metrics.csv")]
   name = prefix.rstrip("_/" + os.sep) or path
@@ -538,7 +539,8 @@ def logged_run(path: str) -> tuple[str, dict | str, list[dict], bool]:
     config = read_config(prefix)
   with open(path) as f:
     rows = list(csv.DictReader(f))
-  return name, config, rows, os.path.exists(prefix + "eval.json")
+  final = prefix + "eval.json"
+  return name, config, rows, final if os.path.exists(final) else None
 
 
 def _paper_curves(rows: list[dict], env: str, objective: str):
@@ -588,7 +590,7 @@ def progress(*directories: str) -> str:
   row's parts trained in several programs (``--first-seed``) are each their own run here."""
   import ablations  # its curves; it imports this module, so not at the top
   out = []
-  for name, config, rows, finished in logged(*directories):
+  for name, config, rows, final in logged(*directories):
     if isinstance(config, str):
       out.append(f"{name}: passed over: {config}\n")
       continue
@@ -612,7 +614,7 @@ def progress(*directories: str) -> str:
     budget = _budget(rows)
     of = "" if budget is None else f" of {budget / 1e6:.1f} M"
     state = ("finished: its final evaluation, eval.json, is the row's verdict (--compare)"
-             if finished else "under training")
+             if final else "under training")
     out += [f"{name}: {objective} on {env}, {state}; its last evaluation every seed reached, at "
             f"{last / 1e6:.1f} M{of} env steps per seed:", ""]
     named = options_line(name, trained_off_row(name, config))
@@ -635,16 +637,12 @@ def progress(*directories: str) -> str:
   return "\n".join(out)
 
 
-def final_point(name: str, key: str, window: str) -> list[float]:
-  """The per-seed values of ``key`` in ``window`` ("Braxlines' window" or "blx's window") of the
-  finished run ``name``'s final evaluation (its ``eval.json``, as ``logged`` names the run);
-  ``[]`` where it has none, or where it is an LGR on other goals than the paper's."""
-  in_directory = os.path.exists(os.path.join(name, "metrics.csv"))  # else a committed row's
-  path = os.path.join(name, "eval.json") if in_directory else name + "_eval.json"
-  if not os.path.exists(path):
+def final_point(evaluation: dict | None, key: str, window: str) -> list[float]:
+  """The per-seed values of ``key`` in ``window`` ("Braxlines' window" or "blx's window") of a
+  finished run's final evaluation (its ``eval.json``, read); ``[]`` where there is none, or where
+  it is an LGR on other goals than the paper's."""
+  if evaluation is None:
     return []
-  with open(path) as f:
-    evaluation = json.load(f)
   if key == "eval/lgr" and not papers_goals(evaluation):
     return []
   suffix = "_braxlines" if window.startswith("Braxlines'") else ""
@@ -664,7 +662,7 @@ def draw_progress(path: str, *directories: str) -> list[str]:
   import ablations
   from blx.experiments import plots
   panels = []
-  for name, config, rows, finished in logged(*directories):
+  for name, config, rows, final in logged(*directories):
     if isinstance(config, str):
       continue
     env, objective = config["env"], config["objective"]
@@ -676,8 +674,12 @@ def draw_progress(path: str, *directories: str) -> list[str]:
                                       else f" ({base})")
       changed = [f"{key} {value}" for key, (value, _) in trained_off_row(name, config).items()]
       title += f", option {', '.join(changed)}" if changed else ""
-      panels.append((title + ("" if finished else ", under training"),
-                     _budget(rows) or 0.0, curves, name if finished else None))
+      evaluation = None
+      if final:
+        with open(final) as f:
+          evaluation = json.load(f)
+      panels.append((title + ("" if final else ", under training"),
+                     _budget(rows) or 0.0, curves, evaluation))
   if not panels:
     raise ValueError(f"nothing to draw under {', '.join(directories)}: no run there logged the "
                      "paper's metrics of a row of its tables (train with --eval-metrics)")
@@ -687,7 +689,7 @@ def draw_progress(path: str, *directories: str) -> list[str]:
                                                           3.2 * len(panels) + 0.6),
                            squeeze=False, layout="constrained")
   finals = False
-  for row_axes, (title, budget, curves, final_of) in zip(axes, panels):
+  for row_axes, (title, budget, curves, evaluation) in zip(axes, panels):
     for ax, (key, mean, std, window, curve, other) in zip(row_axes, curves):
       for (steps, m, d), alpha, label in ((curve, 1.0, "blx (mean ± std over seeds)"),
                                           (other, 0.35, None)):
@@ -697,7 +699,7 @@ def draw_progress(path: str, *directories: str) -> list[str]:
                         color="C0", alpha=0.2 * alpha)
       ax.axhline(mean, color="C3", linestyle="--", label="the paper's final value (mean ± std)")
       ax.axhspan(mean - std, mean + std, color="C3", alpha=0.1)
-      final = final_point(final_of, key, window) if final_of and curve[0] else []
+      final = final_point(evaluation, key, window) if curve[0] else []
       if final:
         finals = True
         final_mean, final_std = mean_std(final)

@@ -534,19 +534,25 @@ def test_a_row_trained_with_an_env_edit_or_an_objective_option_is_named_as_an_op
 
 def test_a_finished_runs_final_evaluation_is_read_for_its_marker(tmp_path):
   run = _run_dir(tmp_path / "run", "gcrl", "ant", [(1e6, 10.0, {"eval/mi": [0.4, 0.5, 0.6]})])
-  assert paper_tables.final_point(str(run), "eval/mi", "blx's window") == []  # not finished
+  assert paper_tables.logged_run(str(run / "metrics.csv"))[3] is None  # not finished
+  assert paper_tables.final_point(None, "eval/mi", "blx's window") == []
   evaluation = {"objective": "gcrl", "env": "ant", "seeds": [0, 1, 2],
                 "per_seed": {"eval/mi": [1.0, 1.1, 1.2], "eval/mi_braxlines": [0.9, 1.0, 1.1],
                              "eval/lgr": [2.0, 2.1, 2.2]}}
   (run / "eval.json").write_text(json.dumps(evaluation))
-  assert paper_tables.final_point(str(run), "eval/mi", "blx's window") == [1.0, 1.1, 1.2]
-  assert paper_tables.final_point(str(run), "eval/mi", "Braxlines' window") == [0.9, 1.0, 1.1]
+  assert paper_tables.logged_run(str(run / "metrics.csv"))[3] == str(run / "eval.json")
+  assert paper_tables.final_point(evaluation, "eval/mi", "blx's window") == [1.0, 1.1, 1.2]
+  assert paper_tables.final_point(evaluation, "eval/mi", "Braxlines' window") == [0.9, 1.0, 1.1]
   # an LGR on blx's old goals is no point beside the paper's; on the paper's goals it is
-  assert paper_tables.final_point(str(run), "eval/lgr", "blx's window") == []
+  assert paper_tables.final_point(evaluation, "eval/lgr", "blx's window") == []
   evaluation["evaluated_on"] = {"lgr_goals": "braxlines"}
-  (tmp_path / "gcrl_eval.json").write_text(json.dumps(evaluation))  # a committed row's
-  assert paper_tables.final_point(str(tmp_path / "gcrl"), "eval/lgr", "blx's window") == [
-      2.0, 2.1, 2.2]
+  assert paper_tables.final_point(evaluation, "eval/lgr", "blx's window") == [2.0, 2.1, 2.2]
+  # a committed row's final evaluation is NAME_eval.json beside its NAME_metrics.csv
+  (tmp_path / "gcrl_metrics.csv").write_text((run / "metrics.csv").read_text())
+  assert paper_tables.logged_run(str(tmp_path / "gcrl_metrics.csv"))[3] is None
+  (tmp_path / "gcrl_eval.json").write_text(json.dumps(evaluation))
+  assert paper_tables.logged_run(str(tmp_path / "gcrl_metrics.csv"))[3] == str(
+      tmp_path / "gcrl_eval.json")
 
 
 def test_progress_names_runs_it_cannot_read_against_the_paper(tmp_path, monkeypatch, capsys):
