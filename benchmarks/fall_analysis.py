@@ -4,6 +4,8 @@ and splits the scored states into those taken before each episode ended and thos
     python benchmarks/fall_analysis.py RUN_DIR [--seeds 0,1] [--deterministic | --noise-scale S]
                                                [--draws 5] [--out FILE.json]
     python benchmarks/fall_analysis.py RUN_DIR --plot   # falls.png from what has run
+    python benchmarks/fall_analysis.py RUN_DIR --trend [--since STEPS] [--evals EVAL_JSON ...]
+                                               [--plot]   # MI against the alive share
 
 Per seed, on the paper's skill episodes (each skill's latent, 10 episodes of the env's length, the
 last 500 steps scored, actions sampled unless ``--deterministic``; no reset after a fall, as in
@@ -59,6 +61,18 @@ protocol's sampled actions, 0: the mean actions): how much action noise the body
 A diagnostic, never the protocol. (The scaled action is tanh(m + S (u - m)), with m and u
 recovered from the policy's mean and sampled actions by arctanh, clipped at |a| = 1 - 1e-6.)
 
+``--trend [--since STEPS]`` reads only metrics.csv (no rollout): every quick evaluation at or after
+STEPS env steps per seed (default all) where every seed has a value is a point (alive share, MI),
+one per seed. It fits the MI (``eval/mi``) against the alive share by least squares and prints the
+fit, Pearson's r, the alive share at which the fit reaches the paper's MI, the mean alive share at
+the last evaluation and its least-squares rate over the window's evaluations, per 10 M env steps,
+and the policy's entropy (``policy/entropy``, of its tanh-squashed actions) at the window's first
+and last evaluation. The env steps at which that rate would bring the alive share to the paper's MI
+is a straight-line extrapolation, printed as one, never a measurement. Writes
+RUN_DIR/alive_trend.json (or ``--out``); with ``--plot``, falls.png gains a panel of the points and
+the fit. ``--evals EVAL_JSON ...`` adds the seeds of evaluations at the protocol's sizes (eval.json
+files; the quick evaluations' sizes are smaller) and their own fit.
+
 Prints the mean +- std over seeds, and the Pearson correlation over seeds of the protocol's MI with
 the alive share (D-min: of the energy distance with the mean end of an episode); writes every
 per-seed value to ``--out`` (default RUN_DIR/fall_analysis.json, or
@@ -75,6 +89,7 @@ the mean end of its episodes.
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import os
 import sys
@@ -105,6 +120,112 @@ def scaled_noise(policy, scale: float):
     return jnp.tanh(mean + scale * (sampled - mean))
 
   return noisy
+
+
+@dataclasses.dataclass(frozen=True)
+class AliveFit:
+  """The least-squares line ``mi = intercept + slope * alive share`` over ``points`` (seed,
+  evaluation) pairs, and Pearson's ``r`` over them (NaN where the MI has no spread)."""
+
+  points: int
+  intercept: float
+  slope: float
+  r: float
+
+  def alive_for(self, mi: float) -> float:
+    """The alive share at which the line reads ``mi`` (NaN where it is flat)."""
+    return (mi - self.intercept) / self.slope if self.slope else float("nan")
+
+
+def fit_alive(alive, mi) -> AliveFit:
+  """``AliveFit`` of the paired values ``alive`` and ``mi``. Raises ValueError where there are
+  fewer than two or the alive share has no spread."""
+  x, y = np.asarray(alive, dtype=float), np.asarray(mi, dtype=float)
+  if x.shape != y.shape or x.size < 2:
+    raise ValueError(f"a fit needs two or more (alive share, MI) pairs, got {x.size} and {y.size}")
+  if np.ptp(x) == 0:
+    raise ValueError(f"the alive share is {x[0]:g} at every point: nothing to fit")
+  slope, intercept = np.polyfit(x, y, 1)
+  r = float(np.corrcoef(x, y)[0, 1]) if np.ptp(y) else float("nan")
+  return AliveFit(points=int(x.size), intercept=float(intercept), slope=float(slope), r=r)
+
+
+@dataclasses.dataclass(frozen=True)
+class AliveTrend:
+  """How the quick evaluations' MI follows the alive share over a window of training (``--trend``
+  in the module's doc): ``fit`` over every seed's evaluations from ``since`` to ``last_step`` env
+  steps per seed; ``alive_last`` the mean alive share at the last, ``alive_rate`` the slope of the
+  mean alive share over the window's evaluations, per 10 M env steps; ``policy_entropy`` the mean
+  over seeds of the policy's entropy (``policy/entropy``, of its squashed actions) at the window's
+  first and last evaluation, where metrics.csv logs it."""
+
+  since: float
+  last_step: float
+  fit: AliveFit
+  alive_last: float
+  alive_rate: float
+  policy_entropy: tuple[float, float] | None = None
+
+  def steps_for(self, mi: float) -> float:
+    """Env steps per seed at which the window's straight-line alive rate brings the alive share to
+    ``fit.alive_for(mi)``: an extrapolation (``last_step`` where it is there already, inf where the
+    share does not rise, NaN where the fit is flat)."""
+    gap = self.fit.alive_for(mi) - self.alive_last
+    if not np.isfinite(gap):
+      return float("nan")
+    if gap <= 0:
+      return self.last_step
+    return self.last_step + gap / self.alive_rate * 1e7 if self.alive_rate > 0 else float("inf")
+
+
+def trend_points(rows: list[dict], since: float = 0.0) -> dict[float, dict[int, tuple]]:
+  """``{env steps: {seed: (alive share, MI)}}`` of metrics.csv ``rows`` at every evaluation from
+  ``since`` env steps per seed on where every seed has both."""
+  mi, alive = ablations.by_step(rows, "eval/mi"), ablations.by_step(rows, "eval/alive_share")
+  if not alive:
+    raise ValueError("metrics.csv has no eval/alive_share: train with --eval-metrics (and a blx "
+                     "that logs it)")
+  seeds = max(len(v) for v in alive.values())
+  return {s: {k: (alive[s][k], mi[s][k]) for k in sorted(alive[s])}
+          for s in sorted(set(mi) & set(alive))
+          if s >= since and len(set(mi[s]) & set(alive[s])) == seeds}
+
+
+def alive_trend(rows: list[dict], since: float = 0.0) -> AliveTrend:
+  """``AliveTrend`` of metrics.csv ``rows`` from ``since`` env steps per seed on. Raises ValueError
+  where the rows hold no alive share, or the window fewer than two evaluations with every seed's
+  MI and alive share, or no spread in the alive share to fit."""
+  points = trend_points(rows, since)
+  if len(points) < 2:
+    steps = sorted(ablations.by_step(rows, "eval/alive_share"))
+    raise ValueError(f"the window from {since:,.0f} env steps holds {len(points)} evaluation(s) "
+                     f"with every seed's MI and alive share; it needs 2 (the evaluations run from "
+                     f"{steps[0]:,.0f} to {steps[-1]:,.0f})")
+  pairs = [v for at in points.values() for v in at.values()]
+  fit = fit_alive([a for a, _ in pairs], [m for _, m in pairs])
+  steps = list(points)
+  means = [np.mean([a for a, _ in points[s].values()]) for s in steps]
+  rate = np.polyfit(np.array(steps) / 1e7, means, 1)[0]
+  noise = ablations.by_step(rows, "policy/entropy")
+  ends = [noise.get(steps[0]), noise.get(steps[-1])]
+  entropy = (tuple(float(np.mean(list(v.values()))) for v in ends)
+             if all(v and len(v) == len(points[steps[0]]) for v in ends) else None)
+  return AliveTrend(since=float(steps[0]), last_step=float(steps[-1]), fit=fit,
+                    alive_last=float(means[-1]), alive_rate=float(rate), policy_entropy=entropy)
+
+
+def evaluation_fit(paths: list[str]) -> tuple[AliveFit, list[tuple[float, float]]]:
+  """``AliveFit`` over every seed of the protocol's evaluations ``paths`` (eval.json files with
+  per-seed ``eval/alive_share`` and ``eval/mi``), and the pairs it was fitted on."""
+  pairs = []
+  for path in paths:
+    with open(path) as f:
+      per_seed = json.load(f).get("per_seed", {})
+    if "eval/alive_share" not in per_seed or "eval/mi" not in per_seed:
+      raise ValueError(f"{path}: no per-seed eval/alive_share and eval/mi (an MI-max run's "
+                       "eval.json, evaluated by a blx that reports the alive share)")
+    pairs += list(zip(per_seed["eval/alive_share"], per_seed["eval/mi"]))
+  return fit_alive([a for a, _ in pairs], [m for _, m in pairs]), pairs
 
 
 def analyse(run: runs.Run, params, key: jax.Array, *, deterministic: bool, draws: int,
@@ -215,8 +336,9 @@ def analyse_dmin(run: runs.Run, params, key: jax.Array, *, deterministic: bool,
           "braxlines_end": metrics.braxlines_end(done)}
 
 
-def plot(directory: str) -> str:
-  """Draws ``directory/falls.png`` (see the module's doc) and returns its path."""
+def plot(directory: str, trend: AliveTrend | None = None, evaluations=None) -> str:
+  """Draws ``directory/falls.png`` (see the module's doc), with ``trend``'s panel (and
+  ``evaluations``, ``evaluation_fit``'s result, in it) where given, and returns its path."""
   import csv
 
   import matplotlib
@@ -237,7 +359,8 @@ def plot(directory: str) -> str:
                      "(and a blx that logs it)")
   paper = ablations.paper_tables.PAPER.get(spec.env, {}).get(spec.objective, {})
   paper_mi = paper.get("eval/mi")
-  fig, axes = plt.subplots(1, 3 if analysis else 2, figsize=(15 if analysis else 10, 3.8))
+  panels = 2 + bool(analysis) + bool(trend)
+  fig, axes = plt.subplots(1, panels, figsize=(5 * panels, 3.8))
 
   band = lambda ax, key, label, color: _band(ax, rows, key, label, color)
   ax = axes[0]
@@ -269,8 +392,41 @@ def plot(directory: str) -> str:
     ax.set_title(f"each seed at the end ({actions} actions, 10 episodes per skill)", fontsize=9)
     ax.legend(fontsize=7)
     ax.grid(alpha=0.3)
+  if trend:
+    _plot_trend(axes[-1], rows, trend, evaluations, paper_mi)
   return _save(fig, plt, directory, f"{common.run_label(spec, directory=directory)}: how much of "
                "the MI the falls take (mean ± std over seeds)")
+
+
+def _plot_trend(ax, rows, trend: AliveTrend, evaluations, paper_mi) -> None:
+  """Each seed's quick evaluations in ``trend``'s window, MI against alive share, with the fit;
+  ``evaluations`` (``evaluation_fit``'s result, or None): the protocol's evaluations' seeds and
+  their fit."""
+  points = trend_points(rows, trend.since)
+  x, y, c = (np.array(v) for v in zip(*[(a, m, s / 1e6) for s, at in points.items()
+                                         for a, m in at.values()]))
+  dots = ax.scatter(x, y, c=c, cmap="viridis", s=14)
+  ax.figure.colorbar(dots, ax=ax, label="env steps per seed (millions)")
+  line = np.linspace(0.0, 1.0, 2)
+  fit = trend.fit
+  ax.plot(line, fit.intercept + fit.slope * line, color="k", lw=1,
+          label=f"quick: MI = {fit.intercept:.2f} + {fit.slope:.2f} x share (r {fit.r:.2f})")
+  if evaluations:
+    fit, pairs = evaluations
+    ax.scatter(*zip(*pairs), color="C3", marker="x", s=24,
+               label="the protocol's evaluations, each seed")
+    ax.plot(line, fit.intercept + fit.slope * line, color="C3", lw=1,
+            label=f"protocol: MI = {fit.intercept:.2f} + {fit.slope:.2f} x share (r {fit.r:.2f})")
+  if paper_mi:
+    ax.axhspan(paper_mi[0] - paper_mi[1], paper_mi[0] + paper_mi[1], color="k", alpha=0.1,
+               label="the paper's MI, mean ± std")
+  ax.set_xlim(0, 1)
+  ax.set_xlabel("alive share of the seed's scored states")
+  ax.set_ylabel("MI (nats)")
+  ax.set_title("MI against alive share, each seed (quick evaluations from "
+               f"{trend.since / 1e6:.0f} M)", fontsize=9)
+  ax.legend(fontsize=7, loc="upper left")
+  ax.grid(alpha=0.3)
 
 
 def _save(fig, plt, directory: str, title: str) -> str:
@@ -345,6 +501,51 @@ def _plot_dmin(directory, spec, rows, analysis, plt) -> str:
                "(mean ± std over seeds)")
 
 
+def print_trend(directory: str, since: float, evaluations: list[str], out: str | None):
+  """``alive_trend`` of ``directory``'s metrics.csv and, where ``evaluations`` names eval.json
+  files, their ``evaluation_fit``, printed beside the paper's MI and written to ``out`` (default
+  ``directory/alive_trend.json``). Returns both (the second None without ``evaluations``)."""
+  import csv
+  with open(os.path.join(directory, "metrics.csv")) as f:
+    trend = alive_trend(list(csv.DictReader(f)), since)
+  protocol = evaluation_fit(evaluations) if evaluations else None
+  spec = runs.read_spec(directory)
+  paper_mi = ablations.paper_tables.PAPER.get(spec.env, {}).get(spec.objective, {}).get("eval/mi")
+  fit = trend.fit
+  result = {"since": trend.since, "last_step": trend.last_step, "quick": dataclasses.asdict(fit),
+            "alive_last": trend.alive_last, "alive_rate": trend.alive_rate,
+            "policy_entropy": trend.policy_entropy}
+  print(f"quick evaluations {trend.since / 1e6:.1f} M to {trend.last_step / 1e6:.1f} M env steps "
+        f"per seed, {fit.points} points (seed, evaluation)")
+  print(f"MI = {fit.intercept:.3f} + {fit.slope:.3f} x alive share (Pearson r {fit.r:.2f})")
+  print(f"mean alive share at the last evaluation {trend.alive_last:.3f}, rising "
+        f"{trend.alive_rate:+.4f} per 10 M env steps over the window")
+  if trend.policy_entropy:
+    print("the policy's entropy (of its squashed actions), mean over seeds: {:.3f} at the window's "
+          "first evaluation, {:.3f} at its last".format(*trend.policy_entropy))
+  if paper_mi:
+    need, steps = fit.alive_for(paper_mi[0]), trend.steps_for(paper_mi[0])
+    result.update(paper_mi=paper_mi[0], alive_for_paper_mi=need, steps_for_paper_mi=steps)
+    print(f"the fit reaches the paper's MI {paper_mi[0]} at alive share {need:.3f}; the window's "
+          f"straight line brings the share there at {steps / 1e6:,.0f} M env steps per seed (an "
+          "extrapolation)")
+  if protocol:
+    fit, pairs = protocol
+    result["protocol"] = dict(dataclasses.asdict(fit), evaluations=list(evaluations),
+                              alive_mean=float(np.mean([a for a, _ in pairs])))
+    print(f"the protocol's evaluations ({len(evaluations)} file(s), {fit.points} seeds): MI = "
+          f"{fit.intercept:.3f} + {fit.slope:.3f} x alive share (Pearson r {fit.r:.2f}); their "
+          f"mean alive share {result['protocol']['alive_mean']:.3f}")
+    if paper_mi:
+      result["protocol"]["alive_for_paper_mi"] = fit.alive_for(paper_mi[0])
+      print(f"this fit reaches the paper's MI {paper_mi[0]} at alive share "
+            f"{fit.alive_for(paper_mi[0]):.3f}")
+  out = out or os.path.join(directory, "alive_trend.json")
+  common.write_json(out, result)
+  print(f"wrote {out}")
+  return trend, protocol
+
+
 def main(argv=None) -> int:
   parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
   common.add_analysis_arguments(parser, "a finished MI-max or D-min run directory (config.json "
@@ -354,9 +555,28 @@ def main(argv=None) -> int:
   parser.add_argument("--draws", type=int, default=5, help="random subsets for the control")
   parser.add_argument("--plot", action="store_true",
                       help="only draw falls.png from metrics.csv and fall_analysis.json")
+  parser.add_argument("--trend", action="store_true",
+                      help="only fit the quick evaluations' MI against their alive share")
+  parser.add_argument("--since", type=float, default=0.0,
+                      help="with --trend: the first env step per seed of the window (default 0)")
+  parser.add_argument("--evals", nargs="+", default=[], metavar="EVAL_JSON",
+                      help="with --trend: also fit the seeds of these eval.json files")
   args = parser.parse_args(argv)
+  if (args.since or args.evals) and not args.trend:
+    parser.error("--since and --evals are --trend's; give --trend with them")
+  if (args.plot or args.trend) and (args.seeds or args.deterministic
+                                    or args.noise_scale is not None):
+    parser.error("--plot and --trend read metrics.csv and roll nothing out: --seeds, "
+                 "--deterministic and --noise-scale are the rollout's")
+  trend = protocol = None
+  if args.trend:
+    try:
+      trend, protocol = print_trend(args.run, args.since, args.evals, args.out)
+    except (OSError, ValueError) as e:
+      parser.error(str(e))
   if args.plot:
-    print(f"wrote {plot(args.run)}")
+    print(f"wrote {plot(args.run, trend, protocol)}")
+  if args.plot or args.trend:
     return 0
   run = runs.load_run(args.run)
   dmin = isinstance(run.objective.spec, DminSpec)

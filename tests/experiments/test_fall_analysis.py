@@ -153,3 +153,83 @@ def test_a_dmin_row_is_split_at_the_falls_and_scored_against_its_target():
   np.testing.assert_allclose(out[f"logit_mode/{1 - positive}"], of(t[t[:, 0] < 0]), rtol=1e-5)
   np.testing.assert_allclose(out["logit_upright"], of(np.arange(1.0, 7.0)[:, None]), rtol=1e-5)
   assert abs(out[f"logit_mode/{positive}"] - out[f"logit_mode/{1 - positive}"]) > 1e-3
+
+
+def _metrics_rows(points, noise=None):
+  """metrics.csv rows from ``{env steps: {seed: (alive share, MI)}}``, with the policy's entropy
+  ``noise(env steps, seed)`` where given."""
+  return [{"seed": str(k), "env_steps": str(s), "eval/alive_share": str(a), "eval/mi": str(m),
+           **({"policy/entropy": str(noise(s, k))} if noise else {})}
+          for s, at in points.items() for k, (a, m) in at.items()]
+
+
+# Four seeds on the line MI = 0.1 + 1.5 x alive share; their mean alive share is 0.2, 0.3, 0.4 at
+# 10, 20 and 30 M env steps (0.1 per 10 M). An evaluation at 5 M that one seed misses is left out.
+_ON_THE_LINE = {
+    s: {k: (m + d, 0.1 + 1.5 * (m + d)) for k, d in enumerate((-0.05, -0.02, 0.02, 0.05))}
+    for s, m in ((10e6, 0.2), (20e6, 0.3), (30e6, 0.4))}
+_ON_THE_LINE[5e6] = {0: (0.9, 0.0), 1: (0.1, 3.0)}
+
+
+def test_the_trend_fits_the_mi_to_the_alive_share_and_extrapolates_the_share():
+  trend = fall_analysis.alive_trend(_metrics_rows(_ON_THE_LINE))
+  assert (trend.since, trend.last_step, trend.fit.points) == (10e6, 30e6, 12)
+  np.testing.assert_allclose([trend.fit.intercept, trend.fit.slope, trend.fit.r], [0.1, 1.5, 1.0])
+  np.testing.assert_allclose([trend.alive_last, trend.alive_rate], [0.4, 0.1])
+  # MI 1.0 needs the share at 0.6: 0.2 above the last mean, two windows of 10 M at 0.1 each.
+  np.testing.assert_allclose(trend.fit.alive_for(1.0), 0.6)
+  np.testing.assert_allclose(trend.steps_for(1.0), 50e6)
+  assert trend.steps_for(0.4) == 30e6  # already there
+  later = fall_analysis.alive_trend(_metrics_rows(_ON_THE_LINE), since=15e6)
+  assert (later.since, later.fit.points) == (20e6, 8)
+  assert trend.policy_entropy is None  # not logged
+  noisy = fall_analysis.alive_trend(_metrics_rows(_ON_THE_LINE, lambda s, k: s / 1e7 + k))
+  np.testing.assert_allclose(noisy.policy_entropy, [1.0 + 1.5, 3.0 + 1.5])  # seeds add 0..3
+
+
+def test_a_share_that_does_not_rise_never_reaches_the_paper():
+  flat = {s: {k: (a, 0.1 + 1.5 * a) for k, a in enumerate((0.2, 0.4))} for s in (1e6, 2e6)}
+  trend = fall_analysis.alive_trend(_metrics_rows(flat))
+  assert abs(trend.alive_rate) < 1e-12 and trend.steps_for(1.0) == float("inf")
+
+
+def test_the_trend_names_what_it_cannot_fit():
+  with pytest.raises(ValueError, match="needs 2"):
+    fall_analysis.alive_trend(_metrics_rows(_ON_THE_LINE), since=25e6)
+  with pytest.raises(ValueError, match="no eval/alive_share"):
+    fall_analysis.alive_trend([{"seed": "0", "env_steps": "1", "eval/mi": "0.5"}])
+  with pytest.raises(ValueError, match="nothing to fit"):
+    fall_analysis.fit_alive([0.3, 0.3, 0.3], [0.1, 0.2, 0.3])
+
+
+def test_the_trend_command_writes_both_fits(tmp_path, monkeypatch):
+  import csv
+  run = tmp_path / "run"
+  run.mkdir()
+  with open(run / "metrics.csv", "w", newline="") as f:
+    writer = csv.DictWriter(f, ["seed", "env_steps", "eval/alive_share", "eval/mi",
+                                "policy/entropy"])
+    writer.writeheader()
+    writer.writerows(_metrics_rows(_ON_THE_LINE, lambda s, k: s / 1e7))
+  evals = []
+  for name, alive in (("a.json", [0.2, 0.4]), ("b.json", [0.5, 0.7])):
+    evals.append(str(tmp_path / name))
+    (tmp_path / name).write_text(json.dumps({"per_seed": {
+        "eval/alive_share": alive, "eval/mi": [2.0 * a - 0.2 for a in alive]}}))
+  monkeypatch.setattr(fall_analysis.runs, "read_spec",
+                      lambda directory: SimpleNamespace(env="humanoid", objective="diayn"))
+  assert fall_analysis.main([str(run), "--trend", "--evals", *evals]) == 0
+  out = json.loads((run / "alive_trend.json").read_text())
+  paper_mi = fall_analysis.ablations.paper_tables.PAPER["humanoid"]["diayn"]["eval/mi"][0]
+  np.testing.assert_allclose(out["quick"]["slope"], 1.5)
+  np.testing.assert_allclose(out["policy_entropy"], [1.0, 3.0])
+  np.testing.assert_allclose(out["alive_for_paper_mi"], (paper_mi - 0.1) / 1.5)
+  assert out["protocol"]["points"] == 4 and out["protocol"]["evaluations"] == evals
+  np.testing.assert_allclose([out["protocol"]["slope"], out["protocol"]["intercept"]], [2.0, -0.2])
+  np.testing.assert_allclose(out["protocol"]["alive_for_paper_mi"], (paper_mi + 0.2) / 2.0)
+  np.testing.assert_allclose(out["protocol"]["alive_mean"], 0.45)
+  (tmp_path / "c.json").write_text(json.dumps({"per_seed": {"eval/mi": [0.5]}}))
+  for bad in (["--evals", evals[0]], ["--since", "5"], ["--trend", "--seeds", "0"],
+              ["--trend", "--evals", str(tmp_path / "c.json")]):
+    with pytest.raises(SystemExit):
+      fall_analysis.main([str(run), *bad])
