@@ -120,7 +120,7 @@ def rollout_fn(name: str):
 
 
 # Tests marked ``run_bound`` spend their time running programs, not compiling them (a few learning
-# tests that train for 100-300 k env steps). ``FAST_COMPILE`` slows such a run by a third or more,
+# tests that train for 100-600 k env steps). ``FAST_COMPILE`` slows such a run by a third or more,
 # so each runs in a process of its own under the run's XLA flags less ``FAST_COMPILE`` and
 # ``NO_FUSION_EMITTERS`` (XLA's defaults, under which their verdicts were set), sharing the run's
 # compilation cache; its output comes back where it fails. Tests marked ``xla_defaults`` run the
