@@ -71,7 +71,7 @@ and last evaluation. The env steps at which that rate would bring the alive shar
 is a straight-line extrapolation, printed as one, never a measurement. Writes
 RUN_DIR/alive_trend.json (or ``--out``); with ``--plot``, falls.png gains a panel of the points and
 the fit. ``--evals EVAL_JSON ...`` adds the seeds of evaluations at the protocol's sizes (eval.json
-files; the quick evaluations' sizes are smaller) and their own fit.
+files, or run directories holding one; the quick evaluations' sizes are smaller) and their own fit.
 
 Prints the mean +- std over seeds, and the Pearson correlation over seeds of the protocol's MI with
 the alive share (D-min: of the energy distance with the mean end of an episode); writes every
@@ -215,12 +215,13 @@ def alive_trend(rows: list[dict], since: float = 0.0) -> AliveTrend:
 
 
 def evaluation_fit(paths: list[str]) -> tuple[AliveFit, list[tuple[float, float]]]:
-  """``AliveFit`` over every seed of the protocol's evaluations ``paths`` (eval.json files with
-  per-seed ``eval/alive_share`` and ``eval/mi``), and the pairs it was fitted on."""
+  """``AliveFit`` over every seed of the protocol's evaluations ``paths`` (eval.json files, or run
+  directories holding one, as ``paper_tables.read_eval`` reads them, with per-seed
+  ``eval/alive_share`` and ``eval/mi``), and the pairs it was fitted on."""
   pairs = []
   for path in paths:
-    with open(path) as f:
-      per_seed = json.load(f).get("per_seed", {})
+    path, evaluation = ablations.paper_tables.read_eval(path)
+    per_seed = evaluation.get("per_seed", {})
     if "eval/alive_share" not in per_seed or "eval/mi" not in per_seed:
       raise ValueError(f"{path}: no per-seed eval/alive_share and eval/mi (an MI-max run's "
                        "eval.json, evaluated by a blx that reports the alive share)")
@@ -336,6 +337,12 @@ def analyse_dmin(run: runs.Run, params, key: jax.Array, *, deterministic: bool,
           "braxlines_end": metrics.braxlines_end(done)}
 
 
+def _paper_row(spec) -> dict:
+  """The paper's values for ``spec``'s env and objective (``paper_tables.PAPER``; empty where the
+  paper has no such row)."""
+  return ablations.paper_tables.PAPER.get(spec.env, {}).get(spec.objective, {})
+
+
 def plot(directory: str, trend: AliveTrend | None = None, evaluations=None) -> str:
   """Draws ``directory/falls.png`` (see the module's doc), with ``trend``'s panel (and
   ``evaluations``, ``evaluation_fit``'s result, in it) where given, and returns its path."""
@@ -357,8 +364,7 @@ def plot(directory: str, trend: AliveTrend | None = None, evaluations=None) -> s
   if not rows or "eval/mi_alive" not in rows[0]:
     raise SystemExit(f"{directory}/metrics.csv has no eval/mi_alive: train with --eval-metrics "
                      "(and a blx that logs it)")
-  paper = ablations.paper_tables.PAPER.get(spec.env, {}).get(spec.objective, {})
-  paper_mi = paper.get("eval/mi")
+  paper_mi = _paper_row(spec).get("eval/mi")
   panels = 2 + bool(analysis) + bool(trend)
   fig, axes = plt.subplots(1, panels, figsize=(5 * panels, 3.8))
 
@@ -454,8 +460,7 @@ def _band(ax, rows, key, label, color):
 
 
 def _plot_dmin(directory, spec, rows, analysis, plt) -> str:
-  paper = ablations.paper_tables.PAPER.get(spec.env, {}).get(spec.objective, {})
-  paper_ed = paper.get("-eval/energy_distance")
+  paper_ed = _paper_row(spec).get("-eval/energy_distance")
   fig, axes = plt.subplots(1, 3 if analysis else 2, figsize=(18 if analysis else 10, 3.8))
   ax = axes[0]
   _band(ax, rows, "eval/energy_distance", "energy distance, blx's window (the last 500 steps)",
@@ -510,7 +515,7 @@ def print_trend(directory: str, since: float, evaluations: list[str], out: str |
     trend = alive_trend(list(csv.DictReader(f)), since)
   protocol = evaluation_fit(evaluations) if evaluations else None
   spec = runs.read_spec(directory)
-  paper_mi = ablations.paper_tables.PAPER.get(spec.env, {}).get(spec.objective, {}).get("eval/mi")
+  paper_mi = _paper_row(spec).get("eval/mi")
   fit = trend.fit
   result = {"since": trend.since, "last_step": trend.last_step, "quick": dataclasses.asdict(fit),
             "alive_last": trend.alive_last, "alive_rate": trend.alive_rate,
@@ -560,7 +565,8 @@ def main(argv=None) -> int:
   parser.add_argument("--since", type=float, default=0.0,
                       help="with --trend: the first env step per seed of the window (default 0)")
   parser.add_argument("--evals", nargs="+", default=[], metavar="EVAL_JSON",
-                      help="with --trend: also fit the seeds of these eval.json files")
+                      help="with --trend: also fit the seeds of these eval.json files (or run "
+                           "directories holding one)")
   args = parser.parse_args(argv)
   if (args.since or args.evals) and not args.trend:
     parser.error("--since and --evals are --trend's; give --trend with them")

@@ -211,11 +211,12 @@ def test_the_trend_command_writes_both_fits(tmp_path, monkeypatch):
                                 "policy/entropy"])
     writer.writeheader()
     writer.writerows(_metrics_rows(_ON_THE_LINE, lambda s, k: s / 1e7))
-  evals = []
-  for name, alive in (("a.json", [0.2, 0.4]), ("b.json", [0.5, 0.7])):
-    evals.append(str(tmp_path / name))
+  evals = []  # a file of any name, and a run directory holding an eval.json
+  for name, alive in (("a.json", [0.2, 0.4]), ("b/eval.json", [0.5, 0.7])):
+    (tmp_path / name).parent.mkdir(exist_ok=True)
     (tmp_path / name).write_text(json.dumps({"per_seed": {
         "eval/alive_share": alive, "eval/mi": [2.0 * a - 0.2 for a in alive]}}))
+    evals.append(str(tmp_path / name.replace("/eval.json", "")))
   monkeypatch.setattr(fall_analysis.runs, "read_spec",
                       lambda directory: SimpleNamespace(env="humanoid", objective="diayn"))
   assert fall_analysis.main([str(run), "--trend", "--evals", *evals]) == 0
@@ -230,6 +231,7 @@ def test_the_trend_command_writes_both_fits(tmp_path, monkeypatch):
   np.testing.assert_allclose(out["protocol"]["alive_mean"], 0.45)
   (tmp_path / "c.json").write_text(json.dumps({"per_seed": {"eval/mi": [0.5]}}))
   for bad in (["--evals", evals[0]], ["--since", "5"], ["--trend", "--seeds", "0"],
-              ["--trend", "--evals", str(tmp_path / "c.json")]):
+              ["--trend", "--evals", str(tmp_path / "c.json")],
+              ["--trend", "--evals", str(tmp_path / "missing.json")]):
     with pytest.raises(SystemExit):
       fall_analysis.main([str(run), *bad])
