@@ -20,7 +20,9 @@ are not the original's (``blx.training.config.off_row``, from its provenance's r
 setting it trained with, else its ``config.json``: ``trained_off_row``), but for how its return
 episodes act (``eval_actions``), which the paper's metrics do not depend on; and its env edits and
 objective options that are not the row's (``desc_off_row``: "env global_options.iterations 4 (the
-original's: 1)").
+original's: 1)"). ``--compare`` and ``--paired`` also name a row trained for other env steps per
+seed than the paper's (``--steps``; ``length_line``): a length is not a setting of how it learns,
+but a row at twice the paper's steps is not the paper's row either.
 Below its verdicts ``--compare`` splits each MI-max row's MI gap into its H(s) and H(s|z) parts
 (``mi_parts``). ``--compare DIR ... --plot PNG`` also draws the rows' final evaluations beside the
 paper's values (``draw_compare``), ``--progress DIR ... --plot PNG`` their curves
@@ -276,10 +278,29 @@ def options_line(name: str, changed: dict[str, tuple]) -> list[str]:
            "the paper's row."] if named else [])
 
 
+def length_line(name: str, config: dict) -> list[str]:
+  """A line where the run ``name`` of a paper's row (its ``config``) was asked for other env steps
+  per seed than the paper's (``paper_steps``), or none. Its length is bookkeeping to ``off_row``
+  (a run's settings, how it learns); to a verdict it is not: the paper's MI after twice its steps
+  is not the paper's row. The length asked for, as its provenance recorded it (``Segment.ppo``),
+  else its config.json; none where neither names it."""
+  env, objective = config.get("env"), config.get("objective")
+  if objective not in PAPER.get(env, {}):
+    return []
+  steps = runs.settings_as_trained(config.get("ppo"), run_segments(name)).get("num_timesteps")
+  paper = paper_steps(env)
+  if steps is None or int(steps) == paper:
+    return []
+  return [f"{name}: trained for {int(steps):,} env steps per seed, the paper's row for "
+          f"{paper:,}: {'longer' if steps > paper else 'shorter'} than the paper's protocol, not "
+          "its row."]
+
+
 def eval_settings(eval_path: str) -> tuple[dict[str, tuple], list[str]]:
   """The settings of the run of the ``eval.json`` at ``eval_path`` that are not the original's
-  (``trained_off_row``), from the ``config.json`` beside it, and its ``options_line``; or ``{}``
-  and a line saying its config could not be read; ``({}, [])`` where it has none."""
+  (``trained_off_row``), from the ``config.json`` beside it, and its ``options_line`` and
+  ``length_line``; or ``{}`` and a line saying its config could not be read; ``({}, [])`` where it
+  has none."""
   prefix = eval_path[:-len("eval.json")]
   if not os.path.exists(prefix + "config.json"):
     return {}, []
@@ -288,7 +309,7 @@ def eval_settings(eval_path: str) -> tuple[dict[str, tuple], list[str]]:
     return {}, [f"{config}: its settings were not checked against the original's"]
   name = prefix.rstrip("_/" + os.sep)
   changed = trained_off_row(name, config)
-  return changed, options_line(name, changed)
+  return changed, options_line(name, changed) + length_line(name, config)
 
 
 def eval_options(eval_path: str) -> list[str]:
@@ -308,7 +329,8 @@ def compared(*directories: str) -> tuple[list[tuple[str | None, dict, dict]], li
   same path under several directories merged: ``merge``), in path order; ``source`` names its file
   where several evaluations of one env's row are among them, else None; the settings as
   ``eval_settings`` gives them (``{}``: the original's); ``notes``, a line per run with such
-  settings (``options_line``). Raises ValueError as ``compare`` says."""
+  settings (``options_line``) or another length (``length_line``). Raises ValueError as
+  ``compare`` says."""
   parts: dict[str, list[dict]] = {}
   found: dict[str, list[str]] = {}  # where each path's parts came from
   notes: dict[str, list[str]] = {}
@@ -373,11 +395,13 @@ MI_PARTS_HEADER = [
 def compare(*directories: str) -> str:
   """The verdict table for every ``eval.json`` under the directories; files at the same path under
   several directories are parts of one row (``merge``). Below it, for the MI-max rows, where their
-  MI departs from the paper's, split into H(s) and H(s|z) (``mi_parts``); then each row's
-  settings that are not the original's (PPO's, env edits, objective options: ``options_line``,
-  from the ``config.json`` beside its ``eval.json``). Where the table holds several evaluations of one env's row (a rerun beside the
-  first run, say), each of their rows names its file. Raises ValueError for a directory that holds
-  no ``eval.json``, and for files at one path that are not parts of one row, naming them."""
+  MI departs from the paper's, split into H(s) and H(s|z) (``mi_parts``); then each row's settings
+  that are not the original's (PPO's, env edits, objective options: ``options_line``, from the
+  ``config.json`` beside its ``eval.json``) and its env steps per seed where they are not the
+  paper's (``length_line``). Where the table holds several evaluations of one env's row (a rerun
+  beside the first run, say), each of their rows names its file. Raises ValueError for a directory
+  that holds no ``eval.json``, and for files at one path that are not parts of one row, naming
+  them."""
   evaluations, notes = compared(*directories)
   rows, parts = list(VERDICT_HEADER), []
   for source, evaluation, _ in evaluations:
@@ -851,8 +875,9 @@ def paired(a: dict, b: dict, names: tuple[str, str] = ("A", "B")) -> list[str]:
 
 
 def paired_report(path_a: str, path_b: str) -> str:
-  """``paired`` for two ``eval.json`` files or run directories, with each one's PPO settings that
-  are not the original's (``options_line``) below the table."""
+  """``paired`` for two ``eval.json`` files or run directories, with each one's settings that are
+  not the original's (``options_line``) and its length where it is not the paper's
+  (``length_line``) below the table."""
   (file_a, a), (file_b, b) = read_eval(path_a), read_eval(path_b)
   names = (_short(file_a), _short(file_b))
   if names[0] == names[1]:

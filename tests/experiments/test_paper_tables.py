@@ -486,7 +486,10 @@ def test_a_row_trained_with_a_setting_not_the_originals_is_named_as_an_option(tm
         {"objective": "gail", "env": "halfcheetah", "seeds": [0, 1, 2],
          "per_seed": {key: [0.4, 0.5, 0.6]}}))
   table = paper_tables.compare(str(tmp_path)).splitlines()
-  assert table[-1] == line and sum("settings not the original's" in r for r in table) == 1
+  # its budget is not a setting, but the verdict's note says it is not the paper's length
+  assert table[-2:] == [line, f"{run}: trained for 1,000,000 env steps per seed, the paper's row "
+                              "for 200,000,000: shorter than the paper's protocol, not its row."]
+  assert sum("settings not the original's" in r for r in table) == 1
   broken = tmp_path / "broken" / "dmin" / "objective=gail"
   broken.mkdir(parents=True)
   (broken / "eval.json").write_text((run / "eval.json").read_text())
@@ -495,6 +498,43 @@ def test_a_row_trained_with_a_setting_not_the_originals_is_named_as_an_option(tm
   titles = paper_tables.draw_progress(str(tmp_path / "rows.png"), str(tmp_path))
   assert sorted(titles) == ["halfcheetah gail, option max_grad_norm 5; blx's window",
                             "halfcheetah gail; blx's window"]
+
+
+def test_a_row_trained_for_other_steps_than_the_papers_is_named_by_its_length(tmp_path):
+  key = "eval/mi"
+  runs_ = {}
+  # Humanoid's PPO row is 50 M env steps; the paper's MI-max rows train twice that
+  for name, objective, ppo in (("twice", "diayn", {"num_timesteps": 200_000_000}),
+                               ("paper", "diayn", {"num_timesteps": 100_000_000}),
+                               ("unnamed", "diayn", {}),  # no length in its files: none named
+                               ("recorded", "diayn", {"num_timesteps": 100_000_000}),
+                               ("task", "task", {"num_timesteps": 200_000_000})):  # no paper row
+    run = _run_dir(tmp_path / name / "mimax" / f"objective={objective}", objective, "humanoid",
+                   [(1e6, 10.0, {key: [0.4, 0.5, 0.6]})])
+    config = json.loads((run / "config.json").read_text())
+    config["ppo"] = ppo
+    (run / "config.json").write_text(json.dumps(config))
+    (run / "eval.json").write_text(json.dumps(
+        {"objective": objective, "env": "humanoid", "seeds": [0, 1, 2],
+         "per_seed": {key: [0.4, 0.5, 0.6]}}))
+    runs_[name] = run
+  # the provenance's record of what it trained with wins over config.json (a resumed run asked
+  # for more steps)
+  from blx.training import config as ppo_config
+  trained = dataclasses.asdict(ppo_config.ppo_defaults("humanoid", num_timesteps=50_000_000))
+  (runs_["recorded"] / "provenance.json").write_text(json.dumps({"segments": [{
+      "started": "2026-12-05T00:00:00Z", "from_env_steps": 0.0, "to_env_steps": 1e6,
+      "device": "cpu", "platform": "cpu", "device_count": 1, "versions": {}, "ppo": trained}]}))
+  lines = [line for line in paper_tables.compare(str(tmp_path)).splitlines()
+           if "env steps per seed" in line]
+  assert lines == [
+      f"{runs_['recorded']}: trained for 50,000,000 env steps per seed, the paper's row for "
+      "100,000,000: shorter than the paper's protocol, not its row.",
+      f"{runs_['twice']}: trained for 200,000,000 env steps per seed, the paper's row for "
+      "100,000,000: longer than the paper's protocol, not its row."]
+  # --paired names it too
+  text = paper_tables.paired_report(str(runs_["paper"]), str(runs_["twice"]))
+  assert text.splitlines()[-1] == lines[1]
 
 
 def test_a_row_trained_with_an_env_edit_or_an_objective_option_is_named_as_an_option(tmp_path):
