@@ -6,6 +6,8 @@ and splits the scored states into those taken before each episode ended and thos
     python benchmarks/fall_analysis.py RUN_DIR --plot   # falls.png from what has run
     python benchmarks/fall_analysis.py RUN_DIR --trend [--since STEPS] [--evals EVAL_JSON ...]
                                                [--plot]   # MI against the alive share
+    python benchmarks/fall_analysis.py DIR --noise-curve [--against DIR ...] [--labels L ...]
+                                               # alive share and MI against the action noise
 
 Per seed, on the paper's skill episodes (each skill's latent, 10 episodes of the env's length, the
 last 500 steps scored, actions sampled unless ``--deterministic``; no reset after a fall, as in
@@ -72,6 +74,15 @@ is a straight-line extrapolation, printed as one, never a measurement. Writes
 RUN_DIR/alive_trend.json (or ``--out``); with ``--plot``, falls.png gains a panel of the points and
 the fit. ``--evals EVAL_JSON ...`` adds the seeds of evaluations at the protocol's sizes (eval.json
 files, or run directories holding one; the quick evaluations' sizes are smaller) and their own fit.
+
+``--noise-curve`` rolls nothing out: it reads the MI-max analyses already in DIR (a run directory
+or a folder of committed analyses: fall_analysis.json at scale 1, the protocol's sampled actions;
+fall_analysis_deterministic.json at 0; fall_analysis_noise_S.json at S), and those of each
+``--against`` directory, and draws DIR/noise_curve.png (or ``--out``): the alive share and the MI
+(every scored state, and the states before the falls) against the action noise, mean +- std over
+seeds, one line per directory (named by ``--labels``, else by the directory's name), beside the
+paper's MI where a config in DIR names its row. It prints the same as a table. Each directory needs
+two scales at least.
 
 Prints the mean +- std over seeds, and the Pearson correlation over seeds of the protocol's MI with
 the alive share (D-min: of the energy distance with the mean end of an episode); writes every
@@ -551,6 +562,107 @@ def print_trend(directory: str, since: float, evaluations: list[str], out: str |
   return trend, protocol
 
 
+def noise_curve(directory: str) -> dict[float, dict[str, list[float]]]:
+  """The MI-max fall analyses in ``directory`` by the action noise they were rolled out at (times
+  the policy's std: 0 the mean actions, 1 the protocol's sampled actions), each its per-seed
+  values. Raises ValueError naming what is missing or wrong: fewer than two scales, two files at
+  one scale, a D-min analysis (it has no MI)."""
+  import glob
+  names = ["fall_analysis.json", "fall_analysis_deterministic.json"]
+  paths = [os.path.join(directory, n) for n in names] + sorted(
+      glob.glob(os.path.join(directory, "fall_analysis_noise_*.json")))
+  curve, found = {}, {}
+  for path in paths:
+    if not os.path.exists(path):
+      continue
+    with open(path) as f:
+      analysis = json.load(f)
+    if "mi" not in analysis.get("per_seed", {}):
+      raise ValueError(f"{path} holds no MI (a D-min run's analysis?): the noise curve reads "
+                       "MI-max analyses")
+    scale = (0.0 if analysis.get("deterministic") else 1.0 if analysis.get("noise_scale") is None
+             else float(analysis["noise_scale"]))
+    if scale in curve:
+      raise ValueError(f"{path} and {found[scale]} are both at noise scale {scale:g}")
+    curve[scale], found[scale] = analysis["per_seed"], path
+  if len(curve) < 2:
+    raise ValueError(
+        f"{directory}: the noise curve needs the analyses of two noise scales at least; it has "
+        f"{', '.join(map(os.path.basename, found.values())) or 'none'} (run `fall_analysis.py "
+        "RUN` for scale 1, with --deterministic for 0, with --noise-scale S for S)")
+  return dict(sorted(curve.items()))
+
+
+def _row_in(directory: str) -> tuple[str, str] | None:
+  """The (env, objective) of the run whose config is in ``directory`` (a run's config.json, else a
+  committed row's single NAME_config.json); None where none is."""
+  import glob
+  paths = [os.path.join(directory, "config.json")]
+  if not os.path.exists(paths[0]):
+    paths = glob.glob(os.path.join(directory, "*_config.json"))
+  if len(paths) != 1 or not os.path.exists(paths[0]):
+    return None
+  with open(paths[0]) as f:
+    config = json.load(f)
+  return config.get("env"), config.get("objective")
+
+
+def noise_table(curves: dict[str, dict]) -> str:
+  """``curves`` (label -> ``noise_curve``'s result) as a table: per label and scale, the mean +-
+  std over seeds of the alive share, the MI and the MI before the falls."""
+  lines = ["| run | noise scale | alive share | MI, every scored state | MI before the falls |",
+           "| --- | ---: | ---: | ---: | ---: |"]
+  for label, curve in curves.items():
+    for scale, values in curve.items():
+      cells = [f"{np.mean(values[k]):.3f} +- {np.std(values[k]):.3f}"
+               for k in ("alive_share", "mi", "mi_alive")]
+      lines.append(f"| {label} | {scale:g} | " + " | ".join(cells) + " |")
+  return "\n".join(lines)
+
+
+def draw_noise_curves(path: str, curves: dict[str, dict],
+                      row: tuple[str, str] | None = None) -> str:
+  """``path``, a PNG of ``curves`` (label -> ``noise_curve``'s result): the alive share, and the
+  MI of every scored state (solid) and of the states before the falls (dashed), against the
+  action noise, mean +- std over seeds; ``row``, (env, objective) where known: the title names it
+  and the paper's MI (mean +- std) is drawn where the paper has one."""
+  paper_mi = (ablations.paper_tables.PAPER.get(row[0], {}).get(row[1], {}).get("eval/mi")
+              if row else None)
+  import matplotlib
+  matplotlib.use("Agg")
+  import matplotlib.pyplot as plt
+  fig, (left, right) = plt.subplots(1, 2, figsize=(11, 4.2))
+  for i, (label, curve) in enumerate(curves.items()):
+    x = np.array(list(curve))
+    for ax, key, style, name in ((left, "alive_share", "-o", label),
+                                 (right, "mi", "-o", f"{label}: every scored state"),
+                                 (right, "mi_alive", "--", f"{label}: states before the fall")):
+      mean = np.array([np.mean(v[key]) for v in curve.values()])
+      std = np.array([np.std(v[key]) for v in curve.values()])
+      ax.plot(x, mean, style, color=f"C{i}", label=name, ms=4)
+      ax.fill_between(x, mean - std, mean + std, color=f"C{i}", alpha=0.15)
+  if paper_mi:
+    right.axhspan(paper_mi[0] - paper_mi[1], paper_mi[0] + paper_mi[1], color="k", alpha=0.1,
+                  label=f"the paper's MI, {paper_mi[0]} ± {paper_mi[1]}")
+  for ax in (left, right):
+    ax.axvline(1.0, color="k", ls=":", lw=1)
+    ax.set_xlabel("action noise, times the policy's std (0: mean actions; 1: the protocol)")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=7)
+  left.set_ylim(0, 1)
+  left.set_ylabel("alive share of the scored states")
+  left.set_title("scored states taken before the fall")
+  right.set_ylabel("MI (nats)")
+  right.set_title("MI(s, z) of the skills")
+  fig.suptitle((f"{row[1]} on {row[0]}: " if row else "") + "how much action noise the bodies "
+               "stand, and the MI it leaves (mean ± std over seeds; the protocol samples at 1)",
+               fontsize=10)
+  fig.tight_layout()
+  fig.savefig(path, dpi=110)
+  plt.close(fig)
+  return path
+
+
 def main(argv=None) -> int:
   parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
   common.add_analysis_arguments(parser, "a finished MI-max or D-min run directory (config.json "
@@ -567,7 +679,35 @@ def main(argv=None) -> int:
   parser.add_argument("--evals", nargs="+", default=[], metavar="EVAL_JSON",
                       help="with --trend: also fit the seeds of these eval.json files (or run "
                            "directories holding one)")
+  parser.add_argument("--noise-curve", action="store_true",
+                      help="only draw the alive share and MI against the action noise from the "
+                           "analyses already written")
+  parser.add_argument("--against", nargs="+", default=[], metavar="DIR",
+                      help="with --noise-curve: other directories of analyses to draw beside")
+  parser.add_argument("--labels", nargs="+", default=None,
+                      help="with --noise-curve: a name per directory, RUN_DIR's first")
   args = parser.parse_args(argv)
+  if (args.against or args.labels) and not args.noise_curve:
+    parser.error("--against and --labels are --noise-curve's; give --noise-curve with them")
+  if args.noise_curve:
+    if args.plot or args.trend or args.seeds or args.deterministic or args.noise_scale is not None:
+      parser.error("--noise-curve reads the analyses already written and rolls nothing out: "
+                   "--plot, --trend, --seeds, --deterministic and --noise-scale are not its")
+    directories = [args.run, *args.against]
+    labels = args.labels or [os.path.basename(os.path.normpath(d)) for d in directories]
+    if len(labels) != len(directories):
+      parser.error(f"--labels gives {len(labels)} names for {len(directories)} directories "
+                   "(RUN_DIR and each --against)")
+    if len(set(labels)) != len(labels):
+      parser.error(f"--labels must differ: {labels}")
+    try:
+      curves = {label: noise_curve(d) for label, d in zip(labels, directories)}
+    except (OSError, ValueError) as e:
+      parser.error(str(e))
+    print(noise_table(curves))
+    out = args.out or os.path.join(args.run, "noise_curve.png")
+    print(f"wrote {draw_noise_curves(out, curves, _row_in(args.run))}")
+    return 0
   if (args.since or args.evals) and not args.trend:
     parser.error("--since and --evals are --trend's; give --trend with them")
   if (args.plot or args.trend) and (args.seeds or args.deterministic

@@ -235,3 +235,60 @@ def test_the_trend_command_writes_both_fits(tmp_path, monkeypatch):
               ["--trend", "--evals", str(tmp_path / "missing.json")]):
     with pytest.raises(SystemExit):
       fall_analysis.main([str(run), *bad])
+
+
+def _analysis(directory, name, alive, mi, **flags):
+  directory.mkdir(parents=True, exist_ok=True)
+  (directory / name).write_text(json.dumps({
+      "seeds": [0, 1], "deterministic": False, **flags,
+      "per_seed": {"alive_share": alive, "mi": mi, "mi_alive": [m + 0.5 for m in mi]}}))
+
+
+def test_the_noise_curve_reads_each_analysis_at_its_scale_and_draws_the_runs_side_by_side(
+    tmp_path, capsys):
+  longer, row = tmp_path / "longer", tmp_path / "row"
+  _analysis(longer, "fall_analysis.json", [0.5, 0.6], [0.6, 0.7])  # the protocol: scale 1
+  _analysis(longer, "fall_analysis_deterministic.json", [0.9, 0.7], [1.5, 1.7], deterministic=True)
+  _analysis(longer, "fall_analysis_noise_0.5.json", [0.8, 0.8], [1.1, 1.3], noise_scale=0.5)
+  _analysis(longer, "fall_analysis_other.json", [0.0, 0.0], [0.0, 0.0])  # not an analysis it reads
+  _analysis(row, "fall_analysis.json", [0.4, 0.4], [0.4, 0.6])
+  _analysis(row, "fall_analysis_deterministic.json", [0.7, 0.7], [1.3, 1.3], deterministic=True)
+  (longer / "diayn_config.json").write_text(json.dumps({"env": "humanoid", "objective": "diayn"}))
+  curve = fall_analysis.noise_curve(str(longer))
+  assert list(curve) == [0.0, 0.5, 1.0]
+  assert curve[0.5]["alive_share"] == [0.8, 0.8] and curve[1.0]["mi"] == [0.6, 0.7]
+  assert fall_analysis._row_in(str(longer)) == ("humanoid", "diayn")
+  assert fall_analysis._row_in(str(row)) is None
+  assert fall_analysis.main([str(longer), "--noise-curve", "--against", str(row),
+                             "--labels", "203 M", "105 M"]) == 0
+  table = capsys.readouterr().out
+  assert "| 203 M | 0.5 | 0.800 +- 0.000 | 1.200 +- 0.100 | 1.700 +- 0.100 |" in table
+  assert "| 105 M | 1 | 0.400 +- 0.000 | 0.500 +- 0.100 | 1.000 +- 0.100 |" in table
+  assert (longer / "noise_curve.png").stat().st_size > 10_000
+
+
+def test_the_noise_curve_names_what_it_cannot_draw(tmp_path):
+  one = tmp_path / "one"
+  _analysis(one, "fall_analysis.json", [0.5, 0.6], [0.6, 0.7])
+  with pytest.raises(ValueError, match="two noise scales at least; it has fall_analysis.json"):
+    fall_analysis.noise_curve(str(one))
+  twice = tmp_path / "twice"
+  _analysis(twice, "fall_analysis.json", [0.5, 0.6], [0.6, 0.7])
+  _analysis(twice, "fall_analysis_noise_1.json", [0.5, 0.6], [0.6, 0.7], noise_scale=1.0)
+  with pytest.raises(ValueError, match="both at noise scale 1"):
+    fall_analysis.noise_curve(str(twice))
+  dmin = tmp_path / "dmin"
+  dmin.mkdir()
+  (dmin / "fall_analysis.json").write_text(json.dumps(
+      {"deterministic": False, "per_seed": {"energy_distance": [1.0]}}))
+  with pytest.raises(ValueError, match="holds no MI"):
+    fall_analysis.noise_curve(str(dmin))
+  _analysis(one, "fall_analysis_deterministic.json", [0.9, 0.7], [1.5, 1.7], deterministic=True)
+  assert fall_analysis.main([str(one), "--noise-curve"]) == 0  # two scales now
+  for bad in (["--against", str(one)], ["--labels", "a"],  # without --noise-curve
+              ["--noise-curve", "--labels", "a", "b"],  # two names, one directory
+              ["--noise-curve", "--against", str(one), "--labels", "a", "a"],
+              ["--noise-curve", "--deterministic"], ["--noise-curve", "--trend"],
+              ["--noise-curve", "--against", str(twice)]):
+    with pytest.raises(SystemExit):
+      fall_analysis.main([str(one), *bad])
