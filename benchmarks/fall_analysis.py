@@ -101,6 +101,7 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+import glob
 import json
 import os
 import sys
@@ -567,7 +568,6 @@ def noise_curve(directory: str) -> dict[float, dict[str, list[float]]]:
   the policy's std: 0 the mean actions, 1 the protocol's sampled actions), each its per-seed
   values. Raises ValueError naming what is missing or wrong: fewer than two scales, two files at
   one scale, a D-min analysis (it has no MI)."""
-  import glob
   names = ["fall_analysis.json", "fall_analysis_deterministic.json"]
   paths = [os.path.join(directory, n) for n in names] + sorted(
       glob.glob(os.path.join(directory, "fall_analysis_noise_*.json")))
@@ -596,7 +596,6 @@ def noise_curve(directory: str) -> dict[float, dict[str, list[float]]]:
 def _row_in(directory: str) -> tuple[str, str] | None:
   """The (env, objective) of the run whose config is in ``directory`` (a run's config.json, else a
   committed row's single NAME_config.json); None where none is."""
-  import glob
   paths = [os.path.join(directory, "config.json")]
   if not os.path.exists(paths[0]):
     paths = glob.glob(os.path.join(directory, "*_config.json"))
@@ -669,7 +668,8 @@ def main(argv=None) -> int:
                                 "and checkpoint)")
   parser.add_argument("--noise-scale", type=float, default=None,
                       help="sample at this multiple of the policy's std (a diagnostic)")
-  parser.add_argument("--draws", type=int, default=5, help="random subsets for the control")
+  parser.add_argument("--draws", type=int, default=None,
+                      help="random subsets for the control (default 5)")
   parser.add_argument("--plot", action="store_true",
                       help="only draw falls.png from metrics.csv and fall_analysis.json")
   parser.add_argument("--trend", action="store_true",
@@ -690,16 +690,19 @@ def main(argv=None) -> int:
   if (args.against or args.labels) and not args.noise_curve:
     parser.error("--against and --labels are --noise-curve's; give --noise-curve with them")
   if args.noise_curve:
-    if args.plot or args.trend or args.seeds or args.deterministic or args.noise_scale is not None:
+    if (args.plot or args.trend or args.since or args.evals or args.seeds or args.deterministic
+        or args.noise_scale is not None or args.draws is not None):
       parser.error("--noise-curve reads the analyses already written and rolls nothing out: "
-                   "--plot, --trend, --seeds, --deterministic and --noise-scale are not its")
+                   "--plot, --trend, --since, --evals, --seeds, --deterministic, --noise-scale "
+                   "and --draws are not its")
     directories = [args.run, *args.against]
     labels = args.labels or [os.path.basename(os.path.normpath(d)) for d in directories]
     if len(labels) != len(directories):
       parser.error(f"--labels gives {len(labels)} names for {len(directories)} directories "
                    "(RUN_DIR and each --against)")
     if len(set(labels)) != len(labels):
-      parser.error(f"--labels must differ: {labels}")
+      parser.error(f"each line needs a name of its own, and these are not: {labels} (give "
+                   "--labels, one per directory)")
     try:
       curves = {label: noise_curve(d) for label, d in zip(labels, directories)}
     except (OSError, ValueError) as e:
@@ -711,9 +714,9 @@ def main(argv=None) -> int:
   if (args.since or args.evals) and not args.trend:
     parser.error("--since and --evals are --trend's; give --trend with them")
   if (args.plot or args.trend) and (args.seeds or args.deterministic
-                                    or args.noise_scale is not None):
+                                    or args.noise_scale is not None or args.draws is not None):
     parser.error("--plot and --trend read metrics.csv and roll nothing out: --seeds, "
-                 "--deterministic and --noise-scale are the rollout's")
+                 "--deterministic, --noise-scale and --draws are the rollout's")
   trend = protocol = None
   if args.trend:
     try:
@@ -736,6 +739,7 @@ def main(argv=None) -> int:
     parser.error(str(e))
   if args.noise_scale is not None and (args.deterministic or args.noise_scale < 0):
     parser.error("--noise-scale takes a number >= 0 and not --deterministic (which is scale 0)")
+  args.draws = 5 if args.draws is None else args.draws
   if args.draws < 1:
     parser.error("--draws must be at least 1")
   params, keys = common.picked_seeds(run, picked, 1)

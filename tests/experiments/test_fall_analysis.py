@@ -289,6 +289,8 @@ def test_the_noise_curve_names_what_it_cannot_draw(tmp_path):
               ["--noise-curve", "--labels", "a", "b"],  # two names, one directory
               ["--noise-curve", "--against", str(one), "--labels", "a", "a"],
               ["--noise-curve", "--deterministic"], ["--noise-curve", "--trend"],
+              ["--noise-curve", "--draws", "3"], ["--noise-curve", "--since", "5"],
+              ["--noise-curve", "--against", str(tmp_path / "x" / "one")],  # two named "one"
               ["--noise-curve", "--against", str(twice)]):
     with pytest.raises(SystemExit):
       fall_analysis.main([str(one), *bad])
