@@ -349,10 +349,10 @@ def analyse_dmin(run: runs.Run, params, key: jax.Array, *, deterministic: bool,
           "braxlines_end": metrics.braxlines_end(done)}
 
 
-def _paper_row(spec) -> dict:
-  """The paper's values for ``spec``'s env and objective (``paper_tables.PAPER``; empty where the
+def _paper_row(env: str, objective: str) -> dict:
+  """The paper's values for ``env``'s ``objective`` row (``paper_tables.PAPER``; empty where the
   paper has no such row)."""
-  return ablations.paper_tables.PAPER.get(spec.env, {}).get(spec.objective, {})
+  return ablations.paper_tables.PAPER.get(env, {}).get(objective, {})
 
 
 def plot(directory: str, trend: AliveTrend | None = None, evaluations=None) -> str:
@@ -376,7 +376,7 @@ def plot(directory: str, trend: AliveTrend | None = None, evaluations=None) -> s
   if not rows or "eval/mi_alive" not in rows[0]:
     raise SystemExit(f"{directory}/metrics.csv has no eval/mi_alive: train with --eval-metrics "
                      "(and a blx that logs it)")
-  paper_mi = _paper_row(spec).get("eval/mi")
+  paper_mi = _paper_row(spec.env, spec.objective).get("eval/mi")
   panels = 2 + bool(analysis) + bool(trend)
   fig, axes = plt.subplots(1, panels, figsize=(5 * panels, 3.8))
 
@@ -472,7 +472,7 @@ def _band(ax, rows, key, label, color):
 
 
 def _plot_dmin(directory, spec, rows, analysis, plt) -> str:
-  paper_ed = _paper_row(spec).get("-eval/energy_distance")
+  paper_ed = _paper_row(spec.env, spec.objective).get("-eval/energy_distance")
   fig, axes = plt.subplots(1, 3 if analysis else 2, figsize=(18 if analysis else 10, 3.8))
   ax = axes[0]
   _band(ax, rows, "eval/energy_distance", "energy distance, blx's window (the last 500 steps)",
@@ -527,7 +527,7 @@ def print_trend(directory: str, since: float, evaluations: list[str], out: str |
     trend = alive_trend(list(csv.DictReader(f)), since)
   protocol = evaluation_fit(evaluations) if evaluations else None
   spec = runs.read_spec(directory)
-  paper_mi = _paper_row(spec).get("eval/mi")
+  paper_mi = _paper_row(spec.env, spec.objective).get("eval/mi")
   fit = trend.fit
   result = {"since": trend.since, "last_step": trend.last_step, "quick": dataclasses.asdict(fit),
             "alive_last": trend.alive_last, "alive_rate": trend.alive_rate,
@@ -595,15 +595,18 @@ def noise_curve(directory: str) -> dict[float, dict[str, list[float]]]:
 
 def _row_in(directory: str) -> tuple[str, str] | None:
   """The (env, objective) of the run whose config is in ``directory`` (a run's config.json, else a
-  committed row's single NAME_config.json); None where none is."""
-  paths = [os.path.join(directory, "config.json")]
-  if not os.path.exists(paths[0]):
-    paths = glob.glob(os.path.join(directory, "*_config.json"))
-  if len(paths) != 1 or not os.path.exists(paths[0]):
+  committed row's single NAME_config.json, read by ``paper_tables.read_config``); None where none
+  is. Raises ValueError where that config cannot be read, saying why."""
+  prefixes = [os.path.join(directory, "")]
+  if not os.path.exists(prefixes[0] + "config.json"):
+    prefixes = [p[:-len("config.json")]
+                for p in glob.glob(os.path.join(directory, "*_config.json"))]
+  if len(prefixes) != 1:
     return None
-  with open(paths[0]) as f:
-    config = json.load(f)
-  return config.get("env"), config.get("objective")
+  config = ablations.paper_tables.read_config(prefixes[0])
+  if isinstance(config, str):
+    raise ValueError(f"{config}: the noise curve takes its row's name and the paper's MI from it")
+  return config["env"], config["objective"]
 
 
 def noise_table(curves: dict[str, dict]) -> str:
@@ -625,8 +628,7 @@ def draw_noise_curves(path: str, curves: dict[str, dict],
   MI of every scored state (solid) and of the states before the falls (dashed), against the
   action noise, mean +- std over seeds; ``row``, (env, objective) where known: the title names it
   and the paper's MI (mean +- std) is drawn where the paper has one."""
-  paper_mi = (ablations.paper_tables.PAPER.get(row[0], {}).get(row[1], {}).get("eval/mi")
-              if row else None)
+  paper_mi = _paper_row(*row).get("eval/mi") if row else None
   import matplotlib
   matplotlib.use("Agg")
   import matplotlib.pyplot as plt
@@ -705,11 +707,12 @@ def main(argv=None) -> int:
                    "--labels, one per directory)")
     try:
       curves = {label: noise_curve(d) for label, d in zip(labels, directories)}
+      row = _row_in(args.run)
     except (OSError, ValueError) as e:
       parser.error(str(e))
     print(noise_table(curves))
     out = args.out or os.path.join(args.run, "noise_curve.png")
-    print(f"wrote {draw_noise_curves(out, curves, _row_in(args.run))}")
+    print(f"wrote {draw_noise_curves(out, curves, row)}")
     return 0
   if (args.since or args.evals) and not args.trend:
     parser.error("--since and --evals are --trend's; give --trend with them")

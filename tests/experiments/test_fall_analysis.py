@@ -285,12 +285,15 @@ def test_the_noise_curve_names_what_it_cannot_draw(tmp_path):
     fall_analysis.noise_curve(str(dmin))
   _analysis(one, "fall_analysis_deterministic.json", [0.9, 0.7], [1.5, 1.7], deterministic=True)
   assert fall_analysis.main([str(one), "--noise-curve"]) == 0  # two scales now
+  (one / "diayn_config.json").write_text("{not json")
+  with pytest.raises(ValueError, match="diayn_config.json is unreadable"):
+    fall_analysis._row_in(str(one))
   for bad in (["--against", str(one)], ["--labels", "a"],  # without --noise-curve
               ["--noise-curve", "--labels", "a", "b"],  # two names, one directory
               ["--noise-curve", "--against", str(one), "--labels", "a", "a"],
               ["--noise-curve", "--deterministic"], ["--noise-curve", "--trend"],
               ["--noise-curve", "--draws", "3"], ["--noise-curve", "--since", "5"],
               ["--noise-curve", "--against", str(tmp_path / "x" / "one")],  # two named "one"
-              ["--noise-curve", "--against", str(twice)]):
+              ["--noise-curve", "--against", str(twice)], ["--noise-curve"]):  # its config
     with pytest.raises(SystemExit):
       fall_analysis.main([str(one), *bad])
