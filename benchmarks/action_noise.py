@@ -13,7 +13,9 @@ the prior's latents; D-min and the rest: episodes without a latent), actions sam
 50th state of the scored window (the last ``metrics.scored_steps`` states), ``--samples`` actions
 are sampled anew. ``action_std``: their std at each state (the action the env gets, after the
 policy's squashing), averaged over action dims and states; ``mean_abs_action``: the mean |action|;
-``saturated_share``: the share of sampled actions beyond 0.99 in magnitude.
+``saturated_share``: the share of sampled actions beyond 0.99 in magnitude; ``action_std_by_joint``:
+the std of each action over the states, named by the joint it drives (which joints the policy
+shakes most). It also prints that per joint, as mean +- std over seeds.
 """
 
 from __future__ import annotations
@@ -39,11 +41,11 @@ def noise_at(policy, params, obs: jax.Array, z: jax.Array | None, key: jax.Array
              samples: int) -> dict:
   """At each state of ``obs [N, O]`` (with latents ``z [N, Z]`` or None), ``samples`` actions
   drawn from ``policy(params, obs, z, key=, deterministic=False)``: the std over the draws
-  (averaged over action dims) ``[N]``, the mean |action| ``[N]`` and the share of draws beyond 0.99
-  in magnitude ``[N]``."""
+  (averaged over action dims) ``[N]`` and per action dim ``[N, A]``, the mean |action| ``[N]`` and
+  the share of draws beyond 0.99 in magnitude ``[N]``."""
   draws = jax.vmap(lambda k: policy(params, obs, z, key=k, deterministic=False))(
       jax.random.split(key, samples))  # [samples, N, A]
-  return {"action_std": draws.std(0).mean(-1),
+  return {"action_std": draws.std(0).mean(-1), "action_std_by_action": draws.std(0),
           "mean_abs_action": jnp.abs(draws).mean((0, 2)),
           "saturated_share": (jnp.abs(draws) > 0.99).mean((0, 2))}
 
@@ -61,7 +63,7 @@ def seed_noise(run, params, key: jax.Array, episodes: int, samples: int) -> dict
   z = jnp.repeat(latents, states.shape[1] * states.shape[2], axis=0) if mimax else None
   out = noise_at(run.policy, params, states.reshape(-1, states.shape[-1]), z,
                  jax.random.fold_in(key, 1), samples)
-  return {k: v.mean() for k, v in out.items()}
+  return {k: v.mean(0) if k == "action_std_by_action" else v.mean() for k, v in out.items()}
 
 
 def main():
@@ -85,11 +87,17 @@ def main():
   params, keys = common.picked_seeds(run, picked, args.key_seed)
   values = jax.jit(jax.vmap(lambda p, k: seed_noise(run, p, k, args.episodes, args.samples)))(
       params, keys)
+  by_action = np.asarray(values.pop("action_std_by_action"), np.float64)  # [seeds, A]
+  names = common.action_names(run.env)
   result = {"run": args.run, "episodes": args.episodes, "samples": args.samples, "per_seed": {}}
   for i, position in enumerate(picked):
     row = {k: float(v[i]) for k, v in values.items()}
-    result["per_seed"][str(run.spec.seeds[position])] = row
     print(f"seed {run.spec.seeds[position]}: " + ", ".join(f"{k} {v:.3f}" for k, v in row.items()))
+    row["action_std_by_joint"] = dict(zip(names, by_action[i].tolist()))
+    result["per_seed"][str(run.spec.seeds[position])] = row
+  print("| joint | action std, mean +- std over seeds |\n| --- | ---: |")
+  for j, name in enumerate(names):
+    print(f"| {name} | {by_action[:, j].mean():.3f} +- {by_action[:, j].std():.3f} |")
   for key in values:
     v = np.asarray(values[key], np.float64)
     print(f"{key}: {v.mean():.3f} +- {v.std():.3f} over seeds ({v.min():.3f} to {v.max():.3f})")

@@ -189,3 +189,12 @@ def run_label(spec, seeds: str | None = None, *, directory: str | None = None) -
   options = ppo_config.off_row_text(spec.env, settings, returns=False)
   return (f"{spec.objective} on {where}, {seeds or f'{len(spec.seeds)} seeds'}"
           + (f"; {options}" if options else ""))
+
+
+def action_names(env) -> tuple[str, ...]:
+  """The MJCF name of the joint each action of ``env`` (an ``Env`` or a wrapper) drives, in action
+  order; ``action i`` for each where the env has no MuJoCo model."""
+  m = getattr(envs.unwrap(env), "mj_model", None)
+  if m is None:
+    return tuple(f"action {i}" for i in range(env.action_size))
+  return tuple(m.joint(int(m.actuator_trnid[i, 0])).name for i in range(m.nu))

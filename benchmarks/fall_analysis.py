@@ -101,9 +101,11 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+import fnmatch
 import glob
 import json
 import os
+import re
 import sys
 
 import jax
@@ -121,17 +123,40 @@ from blx.objectives.specs import DminSpec, MimaxSpec  # noqa: E402
 BINS = 1000
 
 
-def scaled_noise(policy, scale: float):
-  """``policy`` with its pre-tanh sampling noise multiplied by ``scale`` (see the module's doc)."""
+def scaled_noise(policy, scale, where=None):
+  """``policy`` with its pre-tanh sampling noise multiplied by ``scale`` (see the module's doc);
+  ``where``, a boolean per action: the noise on those alone, the mean action on the others."""
   limit = 1.0 - 1e-6
+  factor = scale if where is None else scale * jnp.asarray(where, jnp.float32)
 
   def noisy(params, obs, z=None, key=None, deterministic=False):
     mean = jnp.arctanh(jnp.clip(policy(params, obs, z, deterministic=True), -limit, limit))
     sampled = jnp.arctanh(jnp.clip(policy(params, obs, z, key=key, deterministic=False),
                                    -limit, limit))
-    return jnp.tanh(mean + scale * (sampled - mean))
+    return jnp.tanh(mean + factor * (sampled - mean))
 
   return noisy
+
+
+def noisy_actions(names: tuple[str, ...], patterns: list[str]) -> np.ndarray:
+  """Which of the actions driving joints ``names`` match any of ``patterns`` (fnmatch, on the full
+  name and on the part after the last '/'); each pattern must match one at least."""
+  short = [n.rsplit("/", 1)[-1] for n in names]
+  where = np.zeros(len(names), bool)
+  for pattern in patterns:
+    hit = np.array([fnmatch.fnmatchcase(n, pattern) or fnmatch.fnmatchcase(s, pattern)
+                    for n, s in zip(names, short)], bool)
+    if not hit.any():
+      raise ValueError(f"--noise-on {pattern!r} matches none of the actuated joints: "
+                       f"{', '.join(short)}")
+    where |= hit
+  return where
+
+
+def noise_on_name(patterns: list[str], scale: float | None) -> str:
+  """The analysis' file name for noise on ``patterns`` alone, at ``scale`` (None: 1)."""
+  slug = re.sub(r"[^A-Za-z0-9]+", "_", "+".join(patterns)).strip("_") or "all"
+  return f"fall_analysis_on_{slug}" + ("" if scale is None else f"_{scale:g}") + ".json"
 
 
 @dataclasses.dataclass(frozen=True)
@@ -243,9 +268,10 @@ def evaluation_fit(paths: list[str]) -> tuple[AliveFit, list[tuple[float, float]
 
 def analyse(run: runs.Run, params, key: jax.Array, *, deterministic: bool, draws: int,
             num_latents: int = 10, episodes_per_latent: int = 10,
-            noise_scale: float | None = None) -> dict:
+            noise_scale: float | None = None, noise_on=None) -> dict:
   """The per-seed figures above for one seed's ``params`` (no seed axis); ``noise_scale`` (with
-  ``deterministic`` False) scales the sampling noise."""
+  ``deterministic`` False) scales the sampling noise; ``noise_on``, a boolean per action, keeps it
+  on those actions alone (``noisy_actions``)."""
   objective = run.objective
   indices = np.asarray(metrics.eval_indices(objective))
   scale = objective.spec.obs_scale
@@ -253,7 +279,8 @@ def analyse(run: runs.Run, params, key: jax.Array, *, deterministic: bool, draws
   z_key, roll_key, draw_key = jax.random.split(key, 3)
   latents = metrics.latents_for_evaluation(objective, z_key, num_latents)
   num = latents.shape[0]
-  policy = run.policy if noise_scale is None else scaled_noise(run.policy, noise_scale)
+  policy = (run.policy if noise_scale is None and noise_on is None
+            else scaled_noise(run.policy, 1.0 if noise_scale is None else noise_scale, noise_on))
   before, obs, done = metrics.rollout(
       run.env, policy, params, latents, roll_key, episodes_per_latent=episodes_per_latent,
       deterministic=deterministic,
@@ -291,9 +318,10 @@ def analyse(run: runs.Run, params, key: jax.Array, *, deterministic: bool, draws
 
 def analyse_dmin(run: runs.Run, params, key: jax.Array, *, deterministic: bool,
                  num_episodes: int = 10, every: int | None = None,
-                 noise_scale: float | None = None) -> dict:
+                 noise_scale: float | None = None, noise_on=None) -> dict:
   """The D-min figures of the module's doc for one seed's ``params`` (no seed axis). ``every``:
-  the evaluator's (every 10th state, every state in episodes under 200 steps) unless given."""
+  the evaluator's (every 10th state, every state in episodes under 200 steps) unless given;
+  ``noise_scale`` and ``noise_on`` as ``analyse``'s."""
   spec = run.objective.spec
   if every is None:
     every = 1 if envs.episode_steps(run.env, "fall_analysis") < 200 else 10
@@ -567,7 +595,7 @@ def noise_curve(directory: str) -> dict[float, dict[str, list[float]]]:
   """The MI-max fall analyses in ``directory`` by the action noise they were rolled out at (times
   the policy's std: 0 the mean actions, 1 the protocol's sampled actions), each its per-seed
   values. Raises ValueError naming what is missing or wrong: fewer than two scales, two files at
-  one scale, a D-min analysis (it has no MI)."""
+  one scale, a D-min analysis (it has no MI), one with noise on some actions alone."""
   names = ["fall_analysis.json", "fall_analysis_deterministic.json"]
   paths = [os.path.join(directory, n) for n in names] + sorted(
       glob.glob(os.path.join(directory, "fall_analysis_noise_*.json")))
@@ -580,6 +608,9 @@ def noise_curve(directory: str) -> dict[float, dict[str, list[float]]]:
     if "mi" not in analysis.get("per_seed", {}):
       raise ValueError(f"{path} holds no MI (a D-min run's analysis?): the noise curve reads "
                        "MI-max analyses")
+    if analysis.get("noise_on"):
+      raise ValueError(f"{path} sampled the actions of {analysis['noise_on']} alone (--noise-on); "
+                       "the noise curve reads analyses with noise on every action")
     scale = (0.0 if analysis.get("deterministic") else 1.0 if analysis.get("noise_scale") is None
              else float(analysis["noise_scale"]))
     if scale in curve:
@@ -670,6 +701,10 @@ def main(argv=None) -> int:
                                 "and checkpoint)")
   parser.add_argument("--noise-scale", type=float, default=None,
                       help="sample at this multiple of the policy's std (a diagnostic)")
+  parser.add_argument("--noise-on", nargs="+", default=None, metavar="JOINT",
+                      help="sample only the actions of the joints matching these patterns "
+                           "(fnmatch, e.g. '*hip*' '*knee*'; at --noise-scale, default 1), the "
+                           "mean action on the others (a diagnostic)")
   parser.add_argument("--draws", type=int, default=None,
                       help="random subsets for the control (default 5)")
   parser.add_argument("--plot", action="store_true",
@@ -693,10 +728,10 @@ def main(argv=None) -> int:
     parser.error("--against and --labels are --noise-curve's; give --noise-curve with them")
   if args.noise_curve:
     if (args.plot or args.trend or args.since or args.evals or args.seeds or args.deterministic
-        or args.noise_scale is not None or args.draws is not None):
+        or args.noise_scale is not None or args.draws is not None or args.noise_on):
       parser.error("--noise-curve reads the analyses already written and rolls nothing out: "
-                   "--plot, --trend, --since, --evals, --seeds, --deterministic, --noise-scale "
-                   "and --draws are not its")
+                   "--plot, --trend, --since, --evals, --seeds, --deterministic, --noise-scale, "
+                   "--noise-on and --draws are not its")
     directories = [args.run, *args.against]
     labels = args.labels or [os.path.basename(os.path.normpath(d)) for d in directories]
     if len(labels) != len(directories):
@@ -716,10 +751,10 @@ def main(argv=None) -> int:
     return 0
   if (args.since or args.evals) and not args.trend:
     parser.error("--since and --evals are --trend's; give --trend with them")
-  if (args.plot or args.trend) and (args.seeds or args.deterministic
+  if (args.plot or args.trend) and (args.seeds or args.deterministic or args.noise_on
                                     or args.noise_scale is not None or args.draws is not None):
     parser.error("--plot and --trend read metrics.csv and roll nothing out: --seeds, "
-                 "--deterministic, --noise-scale and --draws are the rollout's")
+                 "--deterministic, --noise-scale, --noise-on and --draws are the rollout's")
   trend = protocol = None
   if args.trend:
     try:
@@ -742,20 +777,33 @@ def main(argv=None) -> int:
     parser.error(str(e))
   if args.noise_scale is not None and (args.deterministic or args.noise_scale < 0):
     parser.error("--noise-scale takes a number >= 0 and not --deterministic (which is scale 0)")
+  if args.noise_on and args.deterministic:
+    parser.error("--noise-on samples the actions of the joints it names; --deterministic samples "
+                 "none: give one of them")
+  noise_on = None
+  if args.noise_on:
+    names = common.action_names(run.env)
+    try:
+      noise_on = noisy_actions(names, args.noise_on)
+    except ValueError as e:
+      parser.error(str(e))
   args.draws = 5 if args.draws is None else args.draws
   if args.draws < 1:
     parser.error("--draws must be at least 1")
   params, keys = common.picked_seeds(run, picked, 1)
   if dmin:
     one = lambda p, k: analyse_dmin(run, p, k, deterministic=args.deterministic,
-                                    noise_scale=args.noise_scale)
+                                    noise_scale=args.noise_scale, noise_on=noise_on)
   else:
     one = lambda p, k: analyse(run, p, k, deterministic=args.deterministic, draws=args.draws,
-                               noise_scale=args.noise_scale)
+                               noise_scale=args.noise_scale, noise_on=noise_on)
   values = {k: np.asarray(v).tolist() for k, v in jax.jit(jax.vmap(one))(params, keys).items()}
   result = {"run": os.path.abspath(args.run), "seeds": [run.spec.seeds[p] for p in picked],
             "deterministic": args.deterministic, "noise_scale": args.noise_scale,
             "draws": args.draws, "per_seed": values}
+  if noise_on is not None:
+    result["noise_on"] = list(args.noise_on)
+    result["noisy_joints"] = [n for n, w in zip(names, noise_on) if w]
   if dmin:
     spec = run.objective.spec
     target = jnp.asarray(spec.target.samples)[:, :len(spec.obs_indices)]
@@ -767,12 +815,16 @@ def main(argv=None) -> int:
           np.corrcoef(values["energy_distance"], values["mean_end_step"])[0, 1])
     else:
       result["corr_mi_alive_share"] = float(np.corrcoef(values["mi"], values["alive_share"])[0, 1])
-  name = ("fall_analysis_deterministic.json" if args.deterministic else "fall_analysis.json"
-          if args.noise_scale is None else f"fall_analysis_noise_{args.noise_scale:g}.json")
+  name = ("fall_analysis_deterministic.json" if args.deterministic
+          else noise_on_name(args.noise_on, args.noise_scale) if args.noise_on
+          else "fall_analysis.json" if args.noise_scale is None
+          else f"fall_analysis_noise_{args.noise_scale:g}.json")
   out = args.out or os.path.join(args.run, name)
   common.write_json(out, result)
   actions = ("mean" if args.deterministic else "sampled" if args.noise_scale is None
              else f"{args.noise_scale:g} x std sampled")
+  if noise_on is not None:
+    actions += f" on {', '.join(result['noisy_joints'])} (the mean on the others)"
   print(f"{run.spec.objective} on {run.spec.env}, seeds {result['seeds']}, {actions} actions")
   print("| metric | mean +- std over seeds |\n| --- | ---: |")
   for k, v in values.items():

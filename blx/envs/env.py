@@ -201,7 +201,7 @@ class Env:
   def _contact_pieces(self, comp: str, spec, where: str) -> list[ObsPiece]:
     if not spec.contact_bodies:
       raise ValueError(f"{where}: component {spec.root!r} of {comp!r} names no contact_bodies; the "
-                       "'cfrc' observer is offered by the ant-like bodies")
+                       "'cfrc' observer is offered by the ant-like bodies and the humanoid")
     rows = []
     for body in spec.contact_bodies:
       b = mujoco.mj_name2id(self.mj_model, mujoco.mjtObj.mjOBJ_BODY, f"{comp}/{body}")

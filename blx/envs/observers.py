@@ -9,10 +9,16 @@ Component observers (``observers`` in a component desc):
   ``[z, quat, 8 joint angles, vel xyz, ang xyz, 8 joint velocities]``: x/y velocity at (13, 14).
 * ``"qp"``: root position, quaternion, linear and angular velocity (for single-body objects).
 * ``"joints"``: joint angles and velocities only.
+* ``"actuator"``: what each of the component's motors applied over the last step, in action order
+  (MJCF ``actuator_force``; blx's motors have gain 1, so this is the action after the torque cut).
+  Brax v1's humanoid observes its motors' torques, action times strength: the same up to a scale
+  per motor, which PPO's observation normaliser removes. blx's humanoid observes them only with
+  this observer added (an option, off by default: the rows trained so far observe 45 entries).
 * ``"cfrc"``: the contact velocity change of each of the component's ``contact_bodies`` over the last
   step, Δv (3 per body) then Δω (3 per body), world frame, clipped to +-``contact_clip`` (Brax v1's
-  ``info.contact``, which its ant observes; computed from MJX's contact forces, see
-  ``blx.envs.brax_bodies``).
+  ``info.contact``, which its ant and humanoid observe; computed from MJX's contact forces, see
+  ``blx.envs.brax_bodies``). The ants observe it by default; the humanoid (its shins) only when
+  it is added.
 * ``dict(observer_type="root", sdcomp="pos"|"rot"|"vel"|"ang", indices=None)``: one root quantity,
   optionally indexed.
 
@@ -36,7 +42,7 @@ __all__ = ["ObsPiece", "Handle", "root_quantity", "component_observers", "edge_o
            "contact_observer",
            "COMPONENT_OBSERVERS", "EDGE_OBSERVERS", "SDCOMPS"]
 
-COMPONENT_OBSERVERS = ("root_joints", "root_z_joints", "qp", "joints", "cfrc", "root")
+COMPONENT_OBSERVERS = ("root_joints", "root_z_joints", "qp", "joints", "cfrc", "actuator", "root")
 EDGE_OBSERVERS = ("root_vec",)
 SDCOMPS = {"pos": 3, "rot": 4, "vel": 3, "ang": 3}
 
@@ -182,6 +188,12 @@ def component_observers(handle: Handle, observer: Any, where: str) -> list[ObsPi
             root("ang", "root_ang")]
   if observer == "joints":
     return [*_joint_pieces(handle, "pos"), *_joint_pieces(handle, "vel")]
+  if observer == "actuator":
+    adr = np.asarray(handle.actions, np.int32)
+    if not len(adr):
+      raise ValueError(f"{where}: component {handle.name!r} has no motors; the 'actuator' observer "
+                       "reads the forces of a component's motors")
+    return [ObsPiece(f"{handle.name}/actuator_force", len(adr), lambda d: d.actuator_force[adr])]
   if isinstance(observer, dict):
     spec = dict(observer)
     kind = spec.pop("observer_type", None)

@@ -431,3 +431,24 @@ def test_humanoid_matches_brax_pose_and_falls_like_it():
   # forward (vx mean +0.32).
   assert np.all(lengths < 150) and 38 <= lengths.mean() <= 75, lengths.mean()
   assert v[:, 0].mean() > 0.1
+
+
+def test_the_humanoid_can_observe_its_shins_contacts_and_its_motors_as_brax_did():
+  # Brax's humanoid observation holds two things its state does not give: each body's contact
+  # impulses (only the shins touch the floor) and the motors' torques. Both are observers here.
+  env = envs.create("humanoid", edits={"components.agent1.observers":
+                                       ["root_z_joints", "cfrc", "actuator"]})
+  assert env.observation_size == 45 + 12 + 17 and env.obs_indices("vel_xy") == (22, 23)
+  step = jax.jit(env.step)
+  state = env.reset(jax.random.PRNGKey(0))
+  action = jnp.zeros(17).at[jnp.array([11, 14])].set(jnp.array([0.3, -0.3]))  # the shoulders
+  for _ in range(3):  # from the reset pose, 1 mm above the floor, onto the feet
+    state = step(state, action)
+  obs = np.asarray(state.obs)
+  dv, dw = obs[45:51].reshape(2, 3), obs[51:57].reshape(2, 3)     # right shin, left shin
+  # Standing on both feet: each shin is pushed up; over one 0.015 s step, holding 42.1 kg up would
+  # take 42.1 * 9.81 * 0.015 / 4.52 = 1.37 m/s of the shins' Delta v together (it still sinks).
+  assert np.all(dv[:, 2] > 0.3) and 0.8 < dv[:, 2].sum() < 1.6, dv
+  np.testing.assert_allclose(dv[0, 2], dv[1, 2], rtol=0.05)       # the pose is symmetric
+  assert np.abs(dw).max() > 0.05                                  # off-centre: a turning push
+  np.testing.assert_allclose(obs[57:], np.asarray(action), atol=1e-6)

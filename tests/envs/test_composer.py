@@ -116,6 +116,19 @@ def test_point_vel_xy_reads_the_slide_velocity():
                              [0.8 * 0.81, -0.4 * 0.81], rtol=1e-4)
 
 
+def test_the_actuator_observer_reads_what_the_motors_applied_over_the_last_step():
+  observed = lambda *names: envs.create("point", edits={"components.agent1.observers": list(names)})
+  env = observed("root_z_joints", "actuator")
+  assert env.observation_size == observed("root_z_joints").observation_size + 2
+  step = jax.jit(env.step)
+  state = env.reset(jax.random.PRNGKey(0))
+  np.testing.assert_allclose(state.obs[-2:], 0.0)                  # nothing applied yet
+  state = step(state, jnp.array([0.5, -0.25]))
+  np.testing.assert_allclose(state.obs[-2:], [0.5, -0.25], atol=1e-6)
+  state = step(state, jnp.array([3.0, 0.0]))                       # beyond the control range
+  np.testing.assert_allclose(state.obs[-2:], [1.0, 0.0], atol=1e-6)
+
+
 def test_reset_actions_end_the_reset_with_one_step_of_random_positive_actions():
   # Brax v1's humanoid reset: the default pose, then one control step with actions U[0, 0.5).
   plain = make_env("point")

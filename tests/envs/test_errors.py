@@ -24,6 +24,8 @@ def _with(**changes):
 
 @pytest.mark.parametrize("desc, pattern", [
     (_with(components__agent1__component="spider"), r"unknown component 'spider'.*'ant'"),
+    (_with(components__ball__observers=["qp", "actuator"]),
+     r"components.ball.observers\[1\]: component 'ball' has no motors"),
     (_with(components__agent1__observers=["root_everything"]),
      r"unknown observer 'root_everything'.*root_z_joints"),
     (_with(components__agent1__reward_fns={"r": {"reward_type": "happiness"}}),

@@ -1,7 +1,8 @@
 """benchmarks/common.py: the one-iteration-per-chunk config that the timing benchmarks
 (train_throughput.py, profile_ppo.py) run a jitted chunk with, the timing of a jitted call
 (chunk_costs.py, host_loop.py), the vmapped env step timed by env_throughput.py and
-cheetah_step.py, and how fall_analysis.py and skill_spread.py pick a run's seeds and name it."""
+cheetah_step.py, how fall_analysis.py and skill_spread.py pick a run's seeds and name it, and the
+joints that a run's actions drive (fall_analysis.py --noise-on, action_noise.py)."""
 
 import argparse
 import dataclasses
@@ -128,3 +129,17 @@ def test_load_picked_names_a_missing_run(tmp_path, capsys):
   with pytest.raises(SystemExit):
     common.load_picked(parser, str(tmp_path / "nothing"), None)
   assert "no run directory at" in capsys.readouterr().err
+
+
+def test_the_humanoid_names_its_actions_by_the_joints_they_drive():
+  env = make_env("humanoid")
+  names = common.action_names(envs.episode(env, 10))  # through a wrapper
+  assert len(names) == env.action_size == 17
+  assert names[:4] == ("agent1/abdomen_z", "agent1/abdomen_y", "agent1/abdomen_x",
+                       "agent1/right_hip_x")
+  assert names[-1] == "agent1/left_elbow"
+
+
+def test_an_env_without_a_mujoco_model_numbers_its_actions():
+  stand_in = type("StandIn", (), {"action_size": 2})()
+  assert common.action_names(stand_in) == ("action 0", "action 1")

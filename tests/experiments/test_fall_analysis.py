@@ -87,6 +87,35 @@ def test_scaled_noise_moves_the_pre_tanh_action_between_mean_and_sample():
                                np.tanh(0.3 + scale * noise), atol=1e-5)
 
 
+def test_noise_on_some_actions_keeps_the_mean_on_the_others():
+  # Mean 0.3, std 2 on three actions; the noise on the first and third alone, at scale 1 and 0.5.
+  def policy(params, obs, z=None, key=None, deterministic=True):
+    u = jnp.full(obs.shape, 0.3)
+    return jnp.tanh(u if deterministic else u + 2.0 * jax.random.normal(key, obs.shape))
+
+  obs, key = jnp.zeros((4, 3)), jax.random.PRNGKey(5)
+  noise = 2.0 * jax.random.normal(key, obs.shape)
+  where = np.array([True, False, True])
+  for scale in (1.0, 0.5):
+    out = fall_analysis.scaled_noise(policy, scale, where)({}, obs, key=key)
+    np.testing.assert_allclose(out[:, 1], np.tanh(0.3), atol=1e-6)
+    np.testing.assert_allclose(out[:, [0, 2]], np.tanh(0.3 + scale * noise[:, [0, 2]]), atol=1e-5)
+
+
+def test_noise_on_names_the_joints_by_pattern_and_refuses_a_pattern_that_names_none():
+  names = ("agent1/abdomen_z", "agent1/right_hip_x", "agent1/right_knee", "agent1/left_hip_x",
+           "agent1/left_elbow")
+  np.testing.assert_array_equal(fall_analysis.noisy_actions(names, ["*hip*", "*knee"]),
+                                [False, True, True, True, False])
+  np.testing.assert_array_equal(fall_analysis.noisy_actions(names, ["agent1/abdomen*"]),
+                                [True, False, False, False, False])
+  with pytest.raises(ValueError, match="'\\*ankle\\*' matches none of the actuated joints: "
+                     "abdomen_z, right_hip_x, right_knee, left_hip_x, left_elbow"):
+    fall_analysis.noisy_actions(names, ["*hip*", "*ankle*"])
+  assert fall_analysis.noise_on_name(["*hip*", "*knee*"], None) == "fall_analysis_on_hip_knee.json"
+  assert fall_analysis.noise_on_name(["abdomen*"], 0.5) == "fall_analysis_on_abdomen_0.5.json"
+
+
 def test_a_write_killed_halfway_leaves_the_last_whole_result(tmp_path, monkeypatch):
   run = SimpleNamespace(spec=SimpleNamespace(seeds=(0, 1, 2), objective="diayn", env="point"),
                         objective=objectives.diayn(num_skills=K, obs_indices=(0,)),
@@ -283,6 +312,12 @@ def test_the_noise_curve_names_what_it_cannot_draw(tmp_path):
       {"deterministic": False, "per_seed": {"energy_distance": [1.0]}}))
   with pytest.raises(ValueError, match="holds no MI"):
     fall_analysis.noise_curve(str(dmin))
+  partial = tmp_path / "partial"
+  _analysis(partial, "fall_analysis.json", [0.5, 0.6], [0.6, 0.7])
+  _analysis(partial, "fall_analysis_noise_0.5.json", [0.8, 0.8], [1.1, 1.3], noise_scale=0.5,
+            noise_on=["*hip*"])
+  with pytest.raises(ValueError, match="--noise-on"):
+    fall_analysis.noise_curve(str(partial))
   _analysis(one, "fall_analysis_deterministic.json", [0.9, 0.7], [1.5, 1.7], deterministic=True)
   assert fall_analysis.main([str(one), "--noise-curve"]) == 0  # two scales now
   (one / "diayn_config.json").write_text("{not json")
@@ -293,6 +328,7 @@ def test_the_noise_curve_names_what_it_cannot_draw(tmp_path):
               ["--noise-curve", "--against", str(one), "--labels", "a", "a"],
               ["--noise-curve", "--deterministic"], ["--noise-curve", "--trend"],
               ["--noise-curve", "--draws", "3"], ["--noise-curve", "--since", "5"],
+              ["--noise-curve", "--noise-on", "*hip*"], ["--trend", "--noise-on", "*hip*"],
               ["--noise-curve", "--against", str(tmp_path / "x" / "one")],  # two named "one"
               ["--noise-curve", "--against", str(twice)], ["--noise-curve"]):  # its config
     with pytest.raises(SystemExit):
