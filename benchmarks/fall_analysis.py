@@ -8,6 +8,8 @@ and splits the scored states into those taken before each episode ended and thos
                                                [--plot]   # MI against the alive share
     python benchmarks/fall_analysis.py DIR --noise-curve [--against DIR ...] [--labels L ...]
                                                # alive share and MI against the action noise
+    python benchmarks/fall_analysis.py RUN_DIR --noise-on JOINT [JOINT ...]  # noise on those
+    python benchmarks/fall_analysis.py DIR --by-joints   # which joints' noise fells the bodies
 
 Per seed, on the paper's skill episodes (each skill's latent, 10 episodes of the env's length, the
 last 500 steps scored, actions sampled unless ``--deterministic``; no reset after a fall, as in
@@ -74,6 +76,16 @@ is a straight-line extrapolation, printed as one, never a measurement. Writes
 RUN_DIR/alive_trend.json (or ``--out``); with ``--plot``, falls.png gains a panel of the points and
 the fit. ``--evals EVAL_JSON ...`` adds the seeds of evaluations at the protocol's sizes (eval.json
 files, or run directories holding one; the quick evaluations' sizes are smaller) and their own fit.
+
+``--noise-on JOINT [JOINT ...]`` samples only the actions of the joints whose MJCF names match a
+pattern (fnmatch, on the full name or after its last '/': ``'*hip*' '*knee*'`` for the humanoid's
+legs), at ``--noise-scale`` (default 1), and takes the mean action on the others: which joints'
+noise fells the bodies. A pattern that matches no actuated joint is refused, naming them. Writes
+fall_analysis_on_PATTERNS.json (``_S`` appended at a scale S). A diagnostic, never the protocol.
+``--by-joints`` rolls nothing out: it reads DIR's ``--noise-on`` analyses at scale 1 between the
+mean actions (fall_analysis_deterministic.json) and the protocol's (fall_analysis.json), all on the
+same keys, and prints the alive share (with its change from the mean actions, paired t-test over
+seeds), the MI and the MI before the falls, and draws DIR/joint_noise.png (or ``--out``).
 
 ``--noise-curve`` rolls nothing out: it reads the MI-max analyses already in DIR (a run directory
 or a folder of committed analyses: fall_analysis.json at scale 1, the protocol's sampled actions;
@@ -695,6 +707,102 @@ def draw_noise_curves(path: str, curves: dict[str, dict],
   return path
 
 
+def joint_noise(directory: str) -> list[tuple[str, int, dict]]:
+  """The MI-max analyses in ``directory`` by the actions that carried the noise: the mean actions
+  (``fall_analysis_deterministic.json``: none), each ``--noise-on`` analysis at scale 1
+  (``fall_analysis_on_*.json``, fewest noisy actions first) and the protocol's sampled actions
+  (``fall_analysis.json``: every action), as (label, noisy actions, per-seed values). The seeds
+  share their keys, latents and draws (``common.picked_seeds``), so the rows pair by seed.
+  Raises ValueError where the mean-action or the protocol's analysis is missing, or an analysis'
+  seeds differ from theirs."""
+  ends = {}
+  for name, label in (("fall_analysis_deterministic.json", "none (the mean actions)"),
+                      ("fall_analysis.json", "every action (the protocol)")):
+    path = os.path.join(directory, name)
+    if not os.path.exists(path):
+      raise ValueError(f"{directory}: the noise by joints needs {name} beside the --noise-on "
+                       "analyses (fall_analysis.py RUN, and with --deterministic)")
+    with open(path) as f:
+      ends[name] = (label, json.load(f))
+  seeds = ends["fall_analysis.json"][1]["seeds"]
+  middle = []
+  for path in sorted(glob.glob(os.path.join(directory, "fall_analysis_on_*.json"))):
+    with open(path) as f:
+      analysis = json.load(f)
+    if analysis.get("noise_scale") not in (None, 1.0):
+      continue  # a --noise-on analysis at another scale is not one of these rows
+    label = ", ".join(pattern.strip("*") for pattern in analysis["noise_on"])
+    middle.append((label, len(analysis["noisy_joints"]), analysis, path))
+  rows = [(ends["fall_analysis_deterministic.json"][0], 0,
+           ends["fall_analysis_deterministic.json"][1], "")]
+  rows += sorted(middle, key=lambda r: (r[1], r[0]))
+  rows.append((ends["fall_analysis.json"][0], None, ends["fall_analysis.json"][1], ""))
+  if not middle:
+    raise ValueError(f"{directory} holds no fall_analysis_on_*.json at scale 1 (fall_analysis.py "
+                     "RUN --noise-on JOINT ...)")
+  out = []
+  for label, count, analysis, path in rows:
+    if analysis["seeds"] != seeds:
+      raise ValueError(f"{path or label}: seeds {analysis['seeds']}, the protocol's analysis "
+                       f"{seeds}: the rows pair by seed")
+    out.append((label, count, analysis["per_seed"]))
+  return out
+
+
+def joint_noise_table(rows: list[tuple[str, int | None, dict]]) -> str:
+  """``joint_noise``'s rows as a table: the alive share, its change from the mean actions with the
+  paired t-test's p over seeds, the MI and the MI before the falls (mean +- std over seeds)."""
+  from scipy import stats
+  base = rows[0][2]["alive_share"]
+  lines = ["| noise on | actions | alive share | change, paired p | MI | MI before the falls |",
+           "| --- | ---: | ---: | ---: | ---: | ---: |"]
+  for label, count, values in rows:
+    cell = lambda k: f"{np.mean(values[k]):.3f} +- {np.std(values[k]):.3f}"
+    change = ("" if values is rows[0][2] else
+              f"{np.mean(values['alive_share']) - np.mean(base):+.3f}, "
+              f"{stats.ttest_rel(values['alive_share'], base).pvalue:.3f}")
+    lines.append(f"| {label} | {'all' if count is None else count} | {cell('alive_share')} | "
+                 f"{change} | {cell('mi')} | {cell('mi_alive')} |")
+  return "\n".join(lines)
+
+
+def draw_joint_noise(path: str, rows: list[tuple[str, int | None, dict]],
+                     row: tuple[str, str] | None = None) -> str:
+  """``path``, a PNG of ``joint_noise``'s rows: horizontal bars of the alive share and of the MI
+  (every scored state; a tick at the states before the falls), mean +- std over seeds, beside the
+  paper's MI where ``row`` (env, objective) has one."""
+  paper_mi = _paper_row(*row).get("eval/mi") if row else None
+  import matplotlib
+  matplotlib.use("Agg")
+  import matplotlib.pyplot as plt
+  y = np.arange(len(rows))[::-1]
+  labels = [f"{label} ({'all' if count is None else count})" for label, count, _ in rows]
+  fig, (left, right) = plt.subplots(1, 2, figsize=(11, 0.45 * len(rows) + 1.6), sharey=True)
+  colors = ["C2"] + ["C0"] * (len(rows) - 2) + ["C3"]
+  for ax, key in ((left, "alive_share"), (right, "mi")):
+    mean = [np.mean(v[key]) for _, _, v in rows]
+    std = [np.std(v[key]) for _, _, v in rows]
+    ax.barh(y, mean, xerr=std, color=colors, alpha=0.8, capsize=3)
+    ax.grid(axis="x", alpha=0.3)
+  right.plot([np.mean(v["mi_alive"]) for _, _, v in rows], y, "k|", ms=14, mew=2,
+             label="MI of the states before the falls")
+  if paper_mi:
+    right.axvspan(paper_mi[0] - paper_mi[1], paper_mi[0] + paper_mi[1], color="k", alpha=0.1,
+                  label=f"the paper's MI, {paper_mi[0]} ± {paper_mi[1]}")
+  right.legend(fontsize=7, loc="lower right")
+  left.set_yticks(y, labels, fontsize=8)
+  left.set_xlim(0, 1)
+  left.set_xlabel("alive share of the scored states")
+  right.set_xlabel("MI (nats), every scored state")
+  fig.suptitle((f"{row[1]} on {row[0]}: " if row else "") + "the policy's action noise on some "
+               "joints alone, the mean action on the rest (number of noisy actions in brackets; "
+               "mean ± std over seeds)", fontsize=9)
+  fig.tight_layout()
+  fig.savefig(path, dpi=110)
+  plt.close(fig)
+  return path
+
+
 def main(argv=None) -> int:
   parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
   common.add_analysis_arguments(parser, "a finished MI-max or D-min run directory (config.json "
@@ -719,6 +827,9 @@ def main(argv=None) -> int:
   parser.add_argument("--noise-curve", action="store_true",
                       help="only draw the alive share and MI against the action noise from the "
                            "analyses already written")
+  parser.add_argument("--by-joints", action="store_true",
+                      help="only tabulate and draw the --noise-on analyses already written, "
+                           "between the mean actions and the protocol's (joint_noise.png)")
   parser.add_argument("--against", nargs="+", default=[], metavar="DIR",
                       help="with --noise-curve: other directories of analyses to draw beside")
   parser.add_argument("--labels", nargs="+", default=None,
@@ -726,6 +837,22 @@ def main(argv=None) -> int:
   args = parser.parse_args(argv)
   if (args.against or args.labels) and not args.noise_curve:
     parser.error("--against and --labels are --noise-curve's; give --noise-curve with them")
+  if args.by_joints:
+    if (args.noise_curve or args.plot or args.trend or args.since or args.evals or args.seeds
+        or args.deterministic or args.noise_scale is not None or args.draws is not None
+        or args.noise_on):
+      parser.error("--by-joints reads the analyses already written and rolls nothing out: "
+                   "--noise-curve, --plot, --trend, --since, --evals, --seeds, --deterministic, "
+                   "--noise-scale, --noise-on and --draws are not its")
+    try:
+      rows = joint_noise(args.run)
+      row = _row_in(args.run)
+    except (OSError, ValueError) as e:
+      parser.error(str(e))
+    print(joint_noise_table(rows))
+    out = args.out or os.path.join(args.run, "joint_noise.png")
+    print(f"wrote {draw_joint_noise(out, rows, row)}")
+    return 0
   if args.noise_curve:
     if (args.plot or args.trend or args.since or args.evals or args.seeds or args.deterministic
         or args.noise_scale is not None or args.draws is not None or args.noise_on):

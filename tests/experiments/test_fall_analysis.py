@@ -333,3 +333,44 @@ def test_the_noise_curve_names_what_it_cannot_draw(tmp_path):
               ["--noise-curve", "--against", str(twice)], ["--noise-curve"]):  # its config
     with pytest.raises(SystemExit):
       fall_analysis.main([str(one), *bad])
+
+
+def test_the_noise_by_joints_lies_between_the_mean_actions_and_the_protocol(tmp_path, capsys):
+  run = tmp_path / "run"
+  _analysis(run, "fall_analysis_deterministic.json", [0.9, 0.8], [1.5, 1.7], deterministic=True)
+  _analysis(run, "fall_analysis.json", [0.5, 0.3], [0.6, 0.7])
+  _analysis(run, "fall_analysis_on_hip_knee.json", [0.6, 0.6], [0.9, 0.8],
+            noise_on=["*hip*", "*knee*"], noisy_joints=["a/hip", "a/knee", "b/hip", "b/knee"])
+  _analysis(run, "fall_analysis_on_abdomen.json", [0.8, 0.8], [1.2, 1.0], noise_on=["abdomen*"],
+            noisy_joints=["abdomen_z"])
+  _analysis(run, "fall_analysis_on_abdomen_0.5.json", [0.0, 0.0], [0.0, 0.0], noise_scale=0.5,
+            noise_on=["abdomen*"], noisy_joints=["abdomen_z"])  # another scale: not a row
+  rows = fall_analysis.joint_noise(str(run))
+  assert [(label, count) for label, count, _ in rows] == [
+      ("none (the mean actions)", 0), ("abdomen", 1), ("hip, knee", 4),
+      ("every action (the protocol)", None)]
+  assert fall_analysis.main([str(run), "--by-joints"]) == 0
+  table = capsys.readouterr().out
+  # the legs' row: alive 0.6, 0.25 below the mean actions' 0.85, in both seeds alike
+  assert "| hip, knee | 4 | 0.600 +- 0.000 | -0.250, " in table
+  assert "| none (the mean actions) | 0 | 0.850 +- 0.050 |  | 1.600 +- 0.100 |" in table
+  assert (run / "joint_noise.png").stat().st_size > 10_000
+
+
+def test_the_noise_by_joints_names_what_it_cannot_read(tmp_path):
+  run = tmp_path / "run"
+  _analysis(run, "fall_analysis.json", [0.5, 0.4], [0.6, 0.7])
+  with pytest.raises(ValueError, match="needs fall_analysis_deterministic.json"):
+    fall_analysis.joint_noise(str(run))
+  _analysis(run, "fall_analysis_deterministic.json", [0.9, 0.8], [1.5, 1.7], deterministic=True)
+  with pytest.raises(ValueError, match="holds no fall_analysis_on_"):
+    fall_analysis.joint_noise(str(run))
+  (run / "fall_analysis_on_knee.json").write_text(json.dumps({
+      "seeds": [0, 3], "deterministic": False, "noise_on": ["*knee*"], "noisy_joints": ["k"],
+      "per_seed": {"alive_share": [0.5, 0.5], "mi": [1.0, 1.0], "mi_alive": [1.2, 1.2]}}))
+  with pytest.raises(ValueError, match="seeds \\[0, 3\\], the protocol's analysis \\[0, 1\\]"):
+    fall_analysis.joint_noise(str(run))
+  for bad in (["--by-joints", "--noise-curve"], ["--by-joints", "--noise-on", "*knee*"],
+              ["--by-joints", "--seeds", "0"], ["--by-joints"]):  # the last: the seeds above
+    with pytest.raises(SystemExit):
+      fall_analysis.main([str(run), *bad])
