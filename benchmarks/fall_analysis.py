@@ -707,14 +707,14 @@ def draw_noise_curves(path: str, curves: dict[str, dict],
   return path
 
 
-def joint_noise(directory: str) -> list[tuple[str, int, dict]]:
+def joint_noise(directory: str) -> list[tuple[str, int | None, dict]]:
   """The MI-max analyses in ``directory`` by the actions that carried the noise: the mean actions
   (``fall_analysis_deterministic.json``: none), each ``--noise-on`` analysis at scale 1
   (``fall_analysis_on_*.json``, fewest noisy actions first) and the protocol's sampled actions
   (``fall_analysis.json``: every action), as (label, noisy actions, per-seed values). The seeds
   share their keys, latents and draws (``common.picked_seeds``), so the rows pair by seed.
-  Raises ValueError where the mean-action or the protocol's analysis is missing, or an analysis'
-  seeds differ from theirs."""
+  Raises ValueError where the mean-action or the protocol's analysis is missing or holds no MI,
+  or an analysis' seeds differ from theirs."""
   ends = {}
   for name, label in (("fall_analysis_deterministic.json", "none (the mean actions)"),
                       ("fall_analysis.json", "every action (the protocol)")):
@@ -724,6 +724,9 @@ def joint_noise(directory: str) -> list[tuple[str, int, dict]]:
                        "analyses (fall_analysis.py RUN, and with --deterministic)")
     with open(path) as f:
       ends[name] = (label, json.load(f))
+  if "mi" not in ends["fall_analysis.json"][1].get("per_seed", {}):
+    raise ValueError(f"{directory}/fall_analysis.json holds no MI (a D-min run's analysis?): the "
+                     "noise by joints reads MI-max analyses")
   seeds = ends["fall_analysis.json"][1]["seeds"]
   middle = []
   for path in sorted(glob.glob(os.path.join(directory, "fall_analysis_on_*.json"))):
@@ -803,6 +806,18 @@ def draw_joint_noise(path: str, rows: list[tuple[str, int | None, dict]],
   return path
 
 
+# The options of a rollout, which the modes that only read what is written refuse.
+ROLLOUT_OPTIONS = ("--seeds", "--deterministic", "--noise-scale", "--noise-on", "--draws")
+
+
+def _refuse(parser, args, why: str, flags: tuple[str, ...]) -> None:
+  """``parser.error`` naming those of ``flags`` that were given, where any was."""
+  given = [flag for flag in flags
+           if getattr(args, flag[2:].replace("-", "_")) not in (None, False, 0.0, [])]
+  if given:
+    parser.error(f"{why}: {', '.join(given)} {'is' if len(given) == 1 else 'are'} not its")
+
+
 def main(argv=None) -> int:
   parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
   common.add_analysis_arguments(parser, "a finished MI-max or D-min run directory (config.json "
@@ -838,12 +853,8 @@ def main(argv=None) -> int:
   if (args.against or args.labels) and not args.noise_curve:
     parser.error("--against and --labels are --noise-curve's; give --noise-curve with them")
   if args.by_joints:
-    if (args.noise_curve or args.plot or args.trend or args.since or args.evals or args.seeds
-        or args.deterministic or args.noise_scale is not None or args.draws is not None
-        or args.noise_on):
-      parser.error("--by-joints reads the analyses already written and rolls nothing out: "
-                   "--noise-curve, --plot, --trend, --since, --evals, --seeds, --deterministic, "
-                   "--noise-scale, --noise-on and --draws are not its")
+    _refuse(parser, args, "--by-joints reads the analyses already written and rolls nothing out",
+            ("--noise-curve", "--plot", "--trend", "--since", "--evals", *ROLLOUT_OPTIONS))
     try:
       rows = joint_noise(args.run)
       row = _row_in(args.run)
@@ -854,11 +865,8 @@ def main(argv=None) -> int:
     print(f"wrote {draw_joint_noise(out, rows, row)}")
     return 0
   if args.noise_curve:
-    if (args.plot or args.trend or args.since or args.evals or args.seeds or args.deterministic
-        or args.noise_scale is not None or args.draws is not None or args.noise_on):
-      parser.error("--noise-curve reads the analyses already written and rolls nothing out: "
-                   "--plot, --trend, --since, --evals, --seeds, --deterministic, --noise-scale, "
-                   "--noise-on and --draws are not its")
+    _refuse(parser, args, "--noise-curve reads the analyses already written and rolls nothing out",
+            ("--plot", "--trend", "--since", "--evals", *ROLLOUT_OPTIONS))
     directories = [args.run, *args.against]
     labels = args.labels or [os.path.basename(os.path.normpath(d)) for d in directories]
     if len(labels) != len(directories):
@@ -878,10 +886,9 @@ def main(argv=None) -> int:
     return 0
   if (args.since or args.evals) and not args.trend:
     parser.error("--since and --evals are --trend's; give --trend with them")
-  if (args.plot or args.trend) and (args.seeds or args.deterministic or args.noise_on
-                                    or args.noise_scale is not None or args.draws is not None):
-    parser.error("--plot and --trend read metrics.csv and roll nothing out: --seeds, "
-                 "--deterministic, --noise-scale, --noise-on and --draws are the rollout's")
+  if args.plot or args.trend:
+    _refuse(parser, args, "--plot and --trend read metrics.csv and roll nothing out",
+            ROLLOUT_OPTIONS)
   trend = protocol = None
   if args.trend:
     try:

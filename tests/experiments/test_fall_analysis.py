@@ -362,6 +362,12 @@ def test_the_noise_by_joints_names_what_it_cannot_read(tmp_path):
   _analysis(run, "fall_analysis.json", [0.5, 0.4], [0.6, 0.7])
   with pytest.raises(ValueError, match="needs fall_analysis_deterministic.json"):
     fall_analysis.joint_noise(str(run))
+  dmin = tmp_path / "dmin"
+  dmin.mkdir()
+  for name in ("fall_analysis.json", "fall_analysis_deterministic.json"):
+    (dmin / name).write_text(json.dumps({"seeds": [0], "per_seed": {"energy_distance": [1.0]}}))
+  with pytest.raises(ValueError, match="holds no MI"):
+    fall_analysis.joint_noise(str(dmin))
   _analysis(run, "fall_analysis_deterministic.json", [0.9, 0.8], [1.5, 1.7], deterministic=True)
   with pytest.raises(ValueError, match="holds no fall_analysis_on_"):
     fall_analysis.joint_noise(str(run))
