@@ -351,7 +351,7 @@ def test_the_noise_by_joints_lies_between_the_mean_actions_and_the_protocol(tmp_
       ("every action (the protocol)", None)]
   assert fall_analysis.main([str(run), "--by-joints"]) == 0
   table = capsys.readouterr().out
-  # the legs' row: alive 0.6, 0.25 below the mean actions' 0.85, in both seeds alike
+  # the legs' row: alive 0.6 in both seeds, 0.25 below the mean actions' 0.85
   assert "| hip, knee | 4 | 0.600 +- 0.000 | -0.250, " in table
   assert "| none (the mean actions) | 0 | 0.850 +- 0.050 |  | 1.600 +- 0.100 |" in table
   assert (run / "joint_noise.png").stat().st_size > 10_000
