@@ -818,6 +818,20 @@ def _refuse(parser, args, why: str, flags: tuple[str, ...]) -> None:
     parser.error(f"{why}: {', '.join(given)} {'is' if len(given) == 1 else 'are'} not its")
 
 
+def _table_and_figure(parser, args, read, table, draw, name: str) -> int:
+  """The read-only modes' end: ``read()`` the analyses and the row of ``args.run``'s config
+  (errors through ``parser``), print ``table`` of them and ``draw`` them to ``--out`` or
+  RUN_DIR/``name``."""
+  try:
+    found, row = read(), _row_in(args.run)
+  except (OSError, ValueError) as e:
+    parser.error(str(e))
+  print(table(found))
+  out = args.out or os.path.join(args.run, name)
+  print(f"wrote {draw(out, found, row)}")
+  return 0
+
+
 def main(argv=None) -> int:
   parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
   common.add_analysis_arguments(parser, "a finished MI-max or D-min run directory (config.json "
@@ -855,15 +869,8 @@ def main(argv=None) -> int:
   if args.by_joints:
     _refuse(parser, args, "--by-joints reads the analyses already written and rolls nothing out",
             ("--noise-curve", "--plot", "--trend", "--since", "--evals", *ROLLOUT_OPTIONS))
-    try:
-      rows = joint_noise(args.run)
-      row = _row_in(args.run)
-    except (OSError, ValueError) as e:
-      parser.error(str(e))
-    print(joint_noise_table(rows))
-    out = args.out or os.path.join(args.run, "joint_noise.png")
-    print(f"wrote {draw_joint_noise(out, rows, row)}")
-    return 0
+    return _table_and_figure(parser, args, lambda: joint_noise(args.run), joint_noise_table,
+                             draw_joint_noise, "joint_noise.png")
   if args.noise_curve:
     _refuse(parser, args, "--noise-curve reads the analyses already written and rolls nothing out",
             ("--plot", "--trend", "--since", "--evals", *ROLLOUT_OPTIONS))
@@ -875,15 +882,9 @@ def main(argv=None) -> int:
     if len(set(labels)) != len(labels):
       parser.error(f"each line needs a name of its own, and these are not: {labels} (give "
                    "--labels, one per directory)")
-    try:
-      curves = {label: noise_curve(d) for label, d in zip(labels, directories)}
-      row = _row_in(args.run)
-    except (OSError, ValueError) as e:
-      parser.error(str(e))
-    print(noise_table(curves))
-    out = args.out or os.path.join(args.run, "noise_curve.png")
-    print(f"wrote {draw_noise_curves(out, curves, row)}")
-    return 0
+    return _table_and_figure(
+        parser, args, lambda: {label: noise_curve(d) for label, d in zip(labels, directories)},
+        noise_table, draw_noise_curves, "noise_curve.png")
   if (args.since or args.evals) and not args.trend:
     parser.error("--since and --evals are --trend's; give --trend with them")
   if args.plot or args.trend:
