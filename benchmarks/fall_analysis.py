@@ -150,6 +150,14 @@ def scaled_noise(policy, scale, where=None):
   return noisy
 
 
+def _noisy_policy(run: runs.Run, noise_scale: float | None, noise_on):
+  """The run's policy as the rollout samples it: as trained where neither ``noise_scale`` nor
+  ``noise_on`` is given, else ``scaled_noise`` (scale 1 where only ``noise_on`` is)."""
+  if noise_scale is None and noise_on is None:
+    return run.policy
+  return scaled_noise(run.policy, 1.0 if noise_scale is None else noise_scale, noise_on)
+
+
 def noisy_actions(names: tuple[str, ...], patterns: list[str]) -> np.ndarray:
   """Which of the actions driving joints ``names`` match any of ``patterns`` (fnmatch, on the full
   name and on the part after the last '/'); each pattern must match one at least."""
@@ -291,8 +299,7 @@ def analyse(run: runs.Run, params, key: jax.Array, *, deterministic: bool, draws
   z_key, roll_key, draw_key = jax.random.split(key, 3)
   latents = metrics.latents_for_evaluation(objective, z_key, num_latents)
   num = latents.shape[0]
-  policy = (run.policy if noise_scale is None and noise_on is None
-            else scaled_noise(run.policy, 1.0 if noise_scale is None else noise_scale, noise_on))
+  policy = _noisy_policy(run, noise_scale, noise_on)
   before, obs, done = metrics.rollout(
       run.env, policy, params, latents, roll_key, episodes_per_latent=episodes_per_latent,
       deterministic=deterministic,
@@ -340,7 +347,7 @@ def analyse_dmin(run: runs.Run, params, key: jax.Array, *, deterministic: bool,
   indices = np.asarray(spec.obs_indices)
   target = jnp.asarray(spec.target.samples)[:, :len(indices)]
   last = metrics.scored_steps(run.env)
-  policy = run.policy if noise_scale is None else scaled_noise(run.policy, noise_scale)
+  policy = _noisy_policy(run, noise_scale, noise_on)
   before, obs, done = metrics.rollout(
       run.env, policy, params, jnp.zeros((1, 0)), key, episodes_per_latent=num_episodes,
       conditions_policy=False, deterministic=deterministic,
@@ -715,19 +722,19 @@ def joint_noise(directory: str) -> list[tuple[str, int | None, dict]]:
   share their keys, latents and draws (``common.picked_seeds``), so the rows pair by seed.
   Raises ValueError where the mean-action or the protocol's analysis is missing or holds no MI,
   or an analysis' seeds differ from theirs."""
-  ends = {}
-  for name, label in (("fall_analysis_deterministic.json", "none (the mean actions)"),
-                      ("fall_analysis.json", "every action (the protocol)")):
+  def read(name: str) -> dict:
     path = os.path.join(directory, name)
     if not os.path.exists(path):
       raise ValueError(f"{directory}: the noise by joints needs {name} beside the --noise-on "
                        "analyses (fall_analysis.py RUN, and with --deterministic)")
     with open(path) as f:
-      ends[name] = (label, json.load(f))
-  if "mi" not in ends["fall_analysis.json"][1].get("per_seed", {}):
+      return json.load(f)
+
+  mean, protocol = read("fall_analysis_deterministic.json"), read("fall_analysis.json")
+  if "mi" not in protocol.get("per_seed", {}):
     raise ValueError(f"{directory}/fall_analysis.json holds no MI (a D-min run's analysis?): the "
                      "noise by joints reads MI-max analyses")
-  seeds = ends["fall_analysis.json"][1]["seeds"]
+  seeds = protocol["seeds"]
   middle = []
   for path in sorted(glob.glob(os.path.join(directory, "fall_analysis_on_*.json"))):
     with open(path) as f:
@@ -736,13 +743,11 @@ def joint_noise(directory: str) -> list[tuple[str, int | None, dict]]:
       continue  # a --noise-on analysis at another scale is not one of these rows
     label = ", ".join(pattern.strip("*") for pattern in analysis["noise_on"])
     middle.append((label, len(analysis["noisy_joints"]), analysis, path))
-  rows = [(ends["fall_analysis_deterministic.json"][0], 0,
-           ends["fall_analysis_deterministic.json"][1], "")]
-  rows += sorted(middle, key=lambda r: (r[1], r[0]))
-  rows.append((ends["fall_analysis.json"][0], None, ends["fall_analysis.json"][1], ""))
   if not middle:
     raise ValueError(f"{directory} holds no fall_analysis_on_*.json at scale 1 (fall_analysis.py "
                      "RUN --noise-on JOINT ...)")
+  rows = [("none (the mean actions)", 0, mean, ""), *sorted(middle, key=lambda r: (r[1], r[0])),
+          ("every action (the protocol)", None, protocol, "")]
   out = []
   for label, count, analysis, path in rows:
     if analysis["seeds"] != seeds:
@@ -759,9 +764,9 @@ def joint_noise_table(rows: list[tuple[str, int | None, dict]]) -> str:
   base = rows[0][2]["alive_share"]
   lines = ["| noise on | actions | alive share | change, paired p | MI | MI before the falls |",
            "| --- | ---: | ---: | ---: | ---: | ---: |"]
-  for label, count, values in rows:
+  for i, (label, count, values) in enumerate(rows):
     cell = lambda k: f"{np.mean(values[k]):.3f} +- {np.std(values[k]):.3f}"
-    change = ("" if values is rows[0][2] else
+    change = ("" if i == 0 else
               f"{np.mean(values['alive_share']) - np.mean(base):+.3f}, "
               f"{stats.ttest_rel(values['alive_share'], base).pvalue:.3f}")
     lines.append(f"| {label} | {'all' if count is None else count} | {cell('alive_share')} | "
@@ -811,9 +816,11 @@ ROLLOUT_OPTIONS = ("--seeds", "--deterministic", "--noise-scale", "--noise-on", 
 
 
 def _refuse(parser, args, why: str, flags: tuple[str, ...]) -> None:
-  """``parser.error`` naming those of ``flags`` that were given, where any was."""
-  given = [flag for flag in flags
-           if getattr(args, flag[2:].replace("-", "_")) not in (None, False, 0.0, [])]
+  """``parser.error`` naming those of ``flags`` that were given (set off their defaults: a
+  ``--noise-scale 0`` is given), where any was."""
+  dests = {flag: flag[2:].replace("-", "_") for flag in flags}
+  given = [flag for flag, dest in dests.items()
+           if getattr(args, dest) != parser.get_default(dest)]
   if given:
     parser.error(f"{why}: {', '.join(given)} {'is' if len(given) == 1 else 'are'} not its")
 

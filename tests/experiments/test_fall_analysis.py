@@ -37,6 +37,12 @@ def _skill_policy(params, obs, z, key=None, deterministic=False):
   return (jnp.argmax(z, -1).astype(jnp.float32) + 1.0)[:, None]  # skill k stands at k + 1
 
 
+def _tanh_gaussian(params, obs, z=None, key=None, deterministic=False):
+  """One action per observation entry: tanh(0.3) as the mean, tanh(0.3 + 2 N(0, 1)) sampled."""
+  u = jnp.full(obs.shape, 0.3)
+  return jnp.tanh(u if deterministic else u + 2.0 * jax.random.normal(key, obs.shape))
+
+
 def test_the_states_after_the_falls_are_split_from_those_before():
   # 8-step episodes, the last 4 scored (steps 5-8): steps 5 and 6 (the fall) count as standing, 7
   # and 8 come after. Before the falls the skills are at 1..4: MI = log K. With the fallen states
@@ -76,28 +82,20 @@ def test_the_command_refuses_a_seed_the_run_does_not_have(tmp_path, monkeypatch)
 def test_scaled_noise_moves_the_pre_tanh_action_between_mean_and_sample():
   # A policy with mean 0.3 and std 2 before the tanh: scale 1 is its sample, 0 its mean, and 0.5
   # half the noise, all with the same key.
-  def policy(params, obs, z=None, key=None, deterministic=True):
-    u = jnp.full(obs.shape, 0.3)
-    return jnp.tanh(u if deterministic else u + 2.0 * jax.random.normal(key, obs.shape))
-
   obs, key = jnp.zeros((5, 2)), jax.random.PRNGKey(3)
   noise = 2.0 * jax.random.normal(key, obs.shape)
   for scale in (0.0, 0.5, 1.0):
-    np.testing.assert_allclose(fall_analysis.scaled_noise(policy, scale)({}, obs, key=key),
+    np.testing.assert_allclose(fall_analysis.scaled_noise(_tanh_gaussian, scale)({}, obs, key=key),
                                np.tanh(0.3 + scale * noise), atol=1e-5)
 
 
 def test_noise_on_some_actions_keeps_the_mean_on_the_others():
   # Mean 0.3, std 2 on three actions; the noise on the first and third alone, at scale 1 and 0.5.
-  def policy(params, obs, z=None, key=None, deterministic=True):
-    u = jnp.full(obs.shape, 0.3)
-    return jnp.tanh(u if deterministic else u + 2.0 * jax.random.normal(key, obs.shape))
-
   obs, key = jnp.zeros((4, 3)), jax.random.PRNGKey(5)
   noise = 2.0 * jax.random.normal(key, obs.shape)
   where = np.array([True, False, True])
   for scale in (1.0, 0.5):
-    out = fall_analysis.scaled_noise(policy, scale, where)({}, obs, key=key)
+    out = fall_analysis.scaled_noise(_tanh_gaussian, scale, where)({}, obs, key=key)
     np.testing.assert_allclose(out[:, 1], np.tanh(0.3), atol=1e-6)
     np.testing.assert_allclose(out[:, [0, 2]], np.tanh(0.3 + scale * noise[:, [0, 2]]), atol=1e-5)
 
@@ -182,6 +180,22 @@ def test_a_dmin_row_is_split_at_the_falls_and_scored_against_its_target():
   np.testing.assert_allclose(out[f"logit_mode/{1 - positive}"], of(t[t[:, 0] < 0]), rtol=1e-5)
   np.testing.assert_allclose(out["logit_upright"], of(np.arange(1.0, 7.0)[:, None]), rtol=1e-5)
   assert abs(out[f"logit_mode/{positive}"] - out[f"logit_mode/{1 - positive}"]) > 1e-3
+
+
+def test_noise_on_reaches_the_dmin_rollout():
+  # The states before the fall are the actions: noise on no action leaves each at the mean,
+  # tanh(0.3); noise on the one action spreads them.
+  objective = objectives.gail(obs_indices=(0,), obs_scale=8.0)
+  run = SimpleNamespace(env=envs.episode(_FallsAtSix(), 8), policy=_tanh_gaussian,
+                        objective=objective)
+  params = training.PolicyParams(normalizer=None, policy={},
+                                 objective=objective.init(jax.random.PRNGKey(3), 1))
+  shaken = lambda where: jax.jit(lambda k: fall_analysis.analyse_dmin(
+      run, params, k, deterministic=False, num_episodes=3, noise_on=where))(jax.random.PRNGKey(0))
+  np.testing.assert_allclose(shaken(np.array([False]))["feature_upright/0"], np.tanh(0.3),
+                             rtol=1e-5)
+  assert abs(float(shaken(np.array([True]))["feature_upright/0"]) - np.tanh(0.3)) > 0.05
+  assert fall_analysis._noisy_policy(run, None, None) is _tanh_gaussian
 
 
 def _metrics_rows(points, noise=None):
@@ -273,6 +287,15 @@ def _analysis(directory, name, alive, mi, **flags):
       "per_seed": {"alive_share": alive, "mi": mi, "mi_alive": [m + 0.5 for m in mi]}}))
 
 
+def _dmin_analyses(directory, *names):
+  """``directory`` with a D-min run's analysis (an energy distance, no MI) under each name."""
+  directory.mkdir(parents=True)
+  for name in names:
+    (directory / name).write_text(json.dumps(
+        {"seeds": [0], "deterministic": False, "per_seed": {"energy_distance": [1.0]}}))
+  return directory
+
+
 def test_the_noise_curve_reads_each_analysis_at_its_scale_and_draws_the_runs_side_by_side(
     tmp_path, capsys):
   longer, row = tmp_path / "longer", tmp_path / "row"
@@ -306,10 +329,7 @@ def test_the_noise_curve_names_what_it_cannot_draw(tmp_path):
   _analysis(twice, "fall_analysis_noise_1.json", [0.5, 0.6], [0.6, 0.7], noise_scale=1.0)
   with pytest.raises(ValueError, match="both at noise scale 1"):
     fall_analysis.noise_curve(str(twice))
-  dmin = tmp_path / "dmin"
-  dmin.mkdir()
-  (dmin / "fall_analysis.json").write_text(json.dumps(
-      {"deterministic": False, "per_seed": {"energy_distance": [1.0]}}))
+  dmin = _dmin_analyses(tmp_path / "dmin", "fall_analysis.json")
   with pytest.raises(ValueError, match="holds no MI"):
     fall_analysis.noise_curve(str(dmin))
   partial = tmp_path / "partial"
@@ -355,6 +375,9 @@ def test_the_noise_by_joints_lies_between_the_mean_actions_and_the_protocol(tmp_
   assert "| hip, knee | 4 | 0.600 +- 0.000 | -0.250, " in table
   assert "| none (the mean actions) | 0 | 0.850 +- 0.050 |  | 1.600 +- 0.100 |" in table
   assert (run / "joint_noise.png").stat().st_size > 10_000
+  with pytest.raises(SystemExit):  # 0 is a scale given, as much as 0.5 is
+    fall_analysis.main([str(run), "--by-joints", "--noise-scale", "0"])
+  assert "--noise-scale is not its" in capsys.readouterr().err
 
 
 def test_the_noise_by_joints_names_what_it_cannot_read(tmp_path):
@@ -362,10 +385,8 @@ def test_the_noise_by_joints_names_what_it_cannot_read(tmp_path):
   _analysis(run, "fall_analysis.json", [0.5, 0.4], [0.6, 0.7])
   with pytest.raises(ValueError, match="needs fall_analysis_deterministic.json"):
     fall_analysis.joint_noise(str(run))
-  dmin = tmp_path / "dmin"
-  dmin.mkdir()
-  for name in ("fall_analysis.json", "fall_analysis_deterministic.json"):
-    (dmin / name).write_text(json.dumps({"seeds": [0], "per_seed": {"energy_distance": [1.0]}}))
+  dmin = _dmin_analyses(tmp_path / "dmin", "fall_analysis.json",
+                        "fall_analysis_deterministic.json")
   with pytest.raises(ValueError, match="holds no MI"):
     fall_analysis.joint_noise(str(dmin))
   _analysis(run, "fall_analysis_deterministic.json", [0.9, 0.8], [1.5, 1.7], deterministic=True)
