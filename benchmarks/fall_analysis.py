@@ -99,7 +99,8 @@ two scales at least.
 Prints the mean +- std over seeds, and the Pearson correlation over seeds of the protocol's MI with
 the alive share (D-min: of the energy distance with the mean end of an episode); writes every
 per-seed value to ``--out`` (default RUN_DIR/fall_analysis.json, or
-fall_analysis_deterministic.json, or fall_analysis_noise_S.json).
+fall_analysis_deterministic.json, or fall_analysis_noise_S.json), with the env steps per seed of the
+checkpoint analysed (``env_steps``: a run under training is analysed where it stands).
 
 ``--plot`` draws RUN_DIR/falls.png: the protocol's MI and the alive-only MI over training beside
 the paper's MI (mean +- std over seeds, from metrics.csv; the run must have been trained with
@@ -941,6 +942,7 @@ def main(argv=None) -> int:
                                noise_scale=args.noise_scale, noise_on=noise_on)
   values = {k: np.asarray(v).tolist() for k, v in jax.jit(jax.vmap(one))(params, keys).items()}
   result = {"run": os.path.abspath(args.run), "seeds": [run.spec.seeds[p] for p in picked],
+            "env_steps": run.env_steps,  # the checkpoint's: a run under training is analysed too
             "deterministic": args.deterministic, "noise_scale": args.noise_scale,
             "draws": args.draws, "per_seed": values}
   if noise_on is not None:

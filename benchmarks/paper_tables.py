@@ -567,16 +567,19 @@ def logged_run(path: str) -> tuple[str, dict | str, list[dict], str | None]:
   return name, config, rows, final if os.path.exists(final) else None
 
 
-def _paper_curves(rows: list[dict], env: str, objective: str):
+def _paper_curves(rows: list[dict], env: str, objective: str,
+                  blx_window: frozenset = frozenset()):
   """Per metric of the paper's row of ``objective`` on ``env``: ``(key, paper mean, paper std,
   window, (env steps, mean, std), other)``, the curve in Braxlines' window (where the paper's
-  numbers were taken) where the run logged it, else in blx's; ``other``, an LGR's curve on other
-  goals than the paper's (``rows`` as ``ablations.with_lgr_goals`` gives them), else empty."""
+  numbers were taken) where the run logged it and ``key`` is not in ``blx_window``, else in blx's;
+  ``other``, an LGR's curve on other goals than the paper's (``rows`` as
+  ``ablations.with_lgr_goals`` gives them), else empty."""
   import ablations  # its curves; it imports this module, so not at the top
   out = []
   for key, (mean, std) in PAPER.get(env, {}).get(objective, {}).items():
     sign, key = (-1.0, key[1:]) if key.startswith("-") else (1.0, key)
-    window, curve = ablations.paper_window_curve(rows, key)
+    window, curve = (("blx's", ablations.curve(rows, key)) if key in blx_window
+                     else ablations.paper_window_curve(rows, key))
     other = (ablations.curve(rows, ablations.other_goals(key)) if key in ablations.LGR_KEYS
              else ([], [], []))
     out.append((key, sign * mean, std, f"{window} window", curve, other))
@@ -679,19 +682,29 @@ def draw_progress(path: str, *directories: str) -> list[str]:
   budget of env steps, beside the paper's final value (mean ± std): how far a row has come, and
   where it stands against the paper. A finished run's final evaluation (``final_point``: the
   protocol's sizes, which the curve's evaluations during training need not have) is a marker at
-  its last step. Returns the panels' titles, row by row."""
+  its last step. Runs drawn together compare like with like: a metric is drawn in Braxlines'
+  window only where every run that logged it logged that window too (a run from before blx logged
+  it has blx's alone), and its panels share one range of values. Returns the panels' titles, row
+  by row."""
   import matplotlib
   matplotlib.use("Agg")
   import matplotlib.pyplot as plt
   import ablations
   from blx.experiments import plots
-  panels = []
+  found = []
   for name, config, rows, final in logged(*directories):
     if isinstance(config, str):
       continue
+    found.append((name, config, ablations.with_lgr_goals(rows, run_segments(name)), final))
+  # the metrics some run has in blx's window alone: every run draws them there
+  blx_window = frozenset(
+      c[0] for _, config, rows, _ in found
+      for c in _paper_curves(rows, config["env"], config["objective"])
+      if c[3].startswith("blx's") and c[4][0])
+  panels = []
+  for name, config, rows, final in found:
     env, objective = config["env"], config["objective"]
-    rows = ablations.with_lgr_goals(rows, run_segments(name))
-    curves = [c for c in _paper_curves(rows, env, objective) if c[-2][0] or c[-1][0]]
+    curves = [c for c in _paper_curves(rows, env, objective, blx_window) if c[-2][0] or c[-1][0]]
     if curves:
       base = os.path.basename(name)
       title = f"{env} {objective}" + ("" if base in (objective, f"objective={objective}")
@@ -740,6 +753,14 @@ def draw_progress(path: str, *directories: str) -> list[str]:
       ax.grid(alpha=0.3)
     for ax in row_axes[len(curves):]:
       ax.axis("off")
+  by_key: dict[str, list] = {}  # one range of values per metric, over the rows
+  for row_axes, (_, _, curves, _) in zip(axes, panels):
+    for ax, curve in zip(row_axes, curves):
+      by_key.setdefault(curve[0], []).append(ax)
+  for shared in by_key.values():
+    limits = [ax.get_ylim() for ax in shared]
+    for ax in shared:
+      ax.set_ylim(min(lo for lo, _ in limits), max(hi for _, hi in limits))
   axes[0][0].legend(fontsize=7, loc="best")
   if finals:
     fig.supxlabel("The curves: the evaluations during training, at the sizes the run logged "

@@ -117,7 +117,7 @@ def test_noise_on_names_the_joints_by_pattern_and_refuses_a_pattern_that_names_n
 def test_a_write_killed_halfway_leaves_the_last_whole_result(tmp_path, monkeypatch):
   run = SimpleNamespace(spec=SimpleNamespace(seeds=(0, 1, 2), objective="diayn", env="point"),
                         objective=objectives.diayn(num_skills=K, obs_indices=(0,)),
-                        params={"w": jnp.arange(3.0)})
+                        params={"w": jnp.arange(3.0)}, env_steps=78_643_200.0)
   monkeypatch.setattr(fall_analysis.runs, "load_run", lambda directory: run)
   monkeypatch.setattr(fall_analysis, "analyse",
                       lambda run, p, k, **_: {"mi": p["w"], "alive_share": p["w"] + 1.0})
@@ -125,6 +125,7 @@ def test_a_write_killed_halfway_leaves_the_last_whole_result(tmp_path, monkeypat
   fall_analysis.main([str(tmp_path)])
   whole = out.read_text()
   assert json.loads(whole)["per_seed"]["mi"] == [0.0, 1.0, 2.0]
+  assert json.loads(whole)["env_steps"] == 78_643_200.0  # the checkpoint analysed
 
   def dies_halfway(obj, f, **kw):
     f.write('{"run": ')

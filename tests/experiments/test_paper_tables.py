@@ -572,6 +572,28 @@ def test_a_row_trained_with_an_env_edit_or_an_objective_option_is_named_as_an_op
       "ant diayn, under training; blx's window"]
 
 
+def test_runs_drawn_together_share_a_window_and_a_range_per_metric(tmp_path, monkeypatch):
+  # One run logged Braxlines' window for MI, the other (older) blx's alone: drawn together, both
+  # are drawn in blx's, and their MI panels share one range of values, so the rows compare.
+  newer = _run_dir(tmp_path / "newer" / "mimax" / "objective=diayn", "diayn", "humanoid", [
+      (1e6, 10.0, {"eval/mi": [0.7, 0.9], "eval/mi_braxlines": [0.2, 0.3]})], seeds=(0, 1))
+  _run_dir(tmp_path / "older" / "mimax" / "objective=diayn", "diayn", "humanoid",
+           [(1e6, 10.0, {"eval/mi": [0.1, 0.2]})], seeds=(0, 1))
+  import matplotlib.pyplot as plt
+  figures = []
+  monkeypatch.setattr(plt, "close", figures.append)
+  png = str(tmp_path / "rows.png")
+  assert paper_tables.draw_progress(png, str(tmp_path)) == [
+      "humanoid diayn, under training; blx's window"] * 2
+  (newer_ax, older_ax), = [[a for a in f.axes if a.get_title()] for f in figures]
+  assert newer_ax.get_ylim() == older_ax.get_ylim()
+  assert [min(newer_ax.lines[0].get_ydata()), min(older_ax.lines[0].get_ydata())] == pytest.approx(
+      [0.8, 0.15])
+  # alone, the newer run is drawn in Braxlines' window, where the paper's numbers were taken
+  assert paper_tables.draw_progress(png, str(tmp_path / "newer")) == [
+      "humanoid diayn, under training; Braxlines' window"]
+
+
 def test_a_finished_runs_final_evaluation_is_read_for_its_marker(tmp_path):
   run = _run_dir(tmp_path / "run", "gcrl", "ant", [(1e6, 10.0, {"eval/mi": [0.4, 0.5, 0.6]})])
   assert paper_tables.logged_run(str(run / "metrics.csv"))[3] is None  # not finished
