@@ -10,6 +10,7 @@ and splits the scored states into those taken before each episode ended and thos
                                                # alive share and MI against the action noise
     python benchmarks/fall_analysis.py RUN_DIR --noise-on JOINT [JOINT ...]  # noise on those
     python benchmarks/fall_analysis.py DIR --by-joints   # which joints' noise fells the bodies
+    python benchmarks/fall_analysis.py RUN_DIR --blind PART [PART ...]  # the policy blind to them
 
 Per seed, on the paper's skill episodes (each skill's latent, 10 episodes of the env's length, the
 last 500 steps scored, actions sampled unless ``--deterministic``; no reset after a fall, as in
@@ -82,6 +83,14 @@ pattern (fnmatch, on the full name or after its last '/': ``'*hip*' '*knee*'`` f
 legs), at ``--noise-scale`` (default 1), and takes the mean action on the others: which joints'
 noise fells the bodies. A pattern that matches no actuated joint is refused, naming them. Writes
 fall_analysis_on_PATTERNS.json (``_S`` appended at a scale S). A diagnostic, never the protocol.
+``--blind PART [PART ...]`` holds the observation's parts whose names (the env's ``obs_layout``,
+e.g. ``agent1/actuator_force``, ``agent1/contact_vel``) match a pattern (fnmatch, on the full name
+or after its last '/') at the running means the policy normalises its input with, at every step:
+the policy sees their average whatever the body does. How much the alive share and the MI fall
+tells how much the gait uses those parts. It composes with the rollout's other options (sampled
+actions by default, ``--deterministic``, ``--noise-scale``). A pattern that matches no part is
+refused, naming them. Writes fall_analysis_blind_PATTERNS.json (or ..._deterministic.json, ...).
+A diagnostic, never the protocol.
 ``--by-joints`` rolls nothing out: it reads DIR's ``--noise-on`` analyses at scale 1 between the
 mean actions (fall_analysis_deterministic.json) and the protocol's (fall_analysis.json), all on the
 same keys, and prints the alive share (with its change from the mean actions, paired t-test over
@@ -151,33 +160,81 @@ def scaled_noise(policy, scale, where=None):
   return noisy
 
 
-def _noisy_policy(run: runs.Run, noise_scale: float | None, noise_on):
+def _noisy_policy(run: runs.Run, noise_scale: float | None, noise_on, blind=None):
   """The run's policy as the rollout samples it: as trained where neither ``noise_scale`` nor
-  ``noise_on`` is given, else ``scaled_noise`` (scale 1 where only ``noise_on`` is)."""
+  ``noise_on`` is given, else ``scaled_noise`` (scale 1 where only ``noise_on`` is); ``blind``,
+  observation indices, held at their running means (``blinded``)."""
+  policy = run.policy if blind is None else blinded(run.policy, blind)
   if noise_scale is None and noise_on is None:
-    return run.policy
-  return scaled_noise(run.policy, 1.0 if noise_scale is None else noise_scale, noise_on)
+    return policy
+  return scaled_noise(policy, 1.0 if noise_scale is None else noise_scale, noise_on)
+
+
+def blinded(policy, indices):
+  """``policy`` (``policy(params, obs, z, key, deterministic)``, ``params`` a ``PolicyParams``)
+  with the observation entries ``indices`` replaced by the running mean of its input normaliser
+  there: the policy sees their average, whatever the body does. The mean comes with the seed's
+  parameters, so a vmap over seeds blinds each seed with its own."""
+  indices = jnp.asarray(indices, jnp.int32)
+
+  def blind(params, obs, z=None, key=None, deterministic=True):
+    mean = jnp.broadcast_to(params.normalizer.mean[indices], obs[..., indices].shape)
+    return policy(params, obs.at[..., indices].set(mean), z, key=key,
+                  deterministic=deterministic)
+
+  return blind
+
+
+def blind_indices(layout: dict[str, slice], patterns: list[str]) -> tuple[list[int], list[str]]:
+  """The observation indices of the parts of ``layout`` (an env's ``obs_layout``) whose names
+  match any of ``patterns`` (fnmatch, on the full name and on the part after the last '/'), and
+  those parts' names; each pattern must match one at least."""
+  indices, parts = set(), []
+  for pattern in patterns:
+    hit = [name for name in layout if _matches(name, pattern)]
+    if not hit:
+      raise ValueError(f"--blind {pattern!r} matches none of the observation's parts: "
+                       f"{', '.join(layout)}")
+    for name in hit:
+      if name not in parts:
+        parts.append(name)
+        indices.update(range(layout[name].start, layout[name].stop))
+  return sorted(indices), parts
+
+
+def _matches(name: str, pattern: str) -> bool:
+  """Whether ``pattern`` (fnmatch) matches ``name`` or its part after the last '/'."""
+  return (fnmatch.fnmatchcase(name, pattern)
+          or fnmatch.fnmatchcase(name.rsplit("/", 1)[-1], pattern))
+
+
+def _slug(patterns: list[str]) -> str:
+  """``patterns`` as a part of a file name."""
+  return re.sub(r"[^A-Za-z0-9]+", "_", "+".join(patterns)).strip("_") or "all"
 
 
 def noisy_actions(names: tuple[str, ...], patterns: list[str]) -> np.ndarray:
   """Which of the actions driving joints ``names`` match any of ``patterns`` (fnmatch, on the full
   name and on the part after the last '/'); each pattern must match one at least."""
-  short = [n.rsplit("/", 1)[-1] for n in names]
   where = np.zeros(len(names), bool)
   for pattern in patterns:
-    hit = np.array([fnmatch.fnmatchcase(n, pattern) or fnmatch.fnmatchcase(s, pattern)
-                    for n, s in zip(names, short)], bool)
+    hit = np.array([_matches(n, pattern) for n in names], bool)
     if not hit.any():
       raise ValueError(f"--noise-on {pattern!r} matches none of the actuated joints: "
-                       f"{', '.join(short)}")
+                       f"{', '.join(n.rsplit('/', 1)[-1] for n in names)}")
     where |= hit
   return where
 
 
+def blind_name(patterns: list[str], name: str) -> str:
+  """The file name of an analysis ``name`` (e.g. fall_analysis.json) with the policy blind to the
+  observation's parts matching ``patterns``: fall_analysis_blind_PATTERNS[...].json."""
+  return name.replace("fall_analysis", f"fall_analysis_blind_{_slug(patterns)}", 1)
+
+
 def noise_on_name(patterns: list[str], scale: float | None) -> str:
   """The analysis' file name for noise on ``patterns`` alone, at ``scale`` (None: 1)."""
-  slug = re.sub(r"[^A-Za-z0-9]+", "_", "+".join(patterns)).strip("_") or "all"
-  return f"fall_analysis_on_{slug}" + ("" if scale is None else f"_{scale:g}") + ".json"
+  return f"fall_analysis_on_{_slug(patterns)}" + ("" if scale is None else f"_{scale:g}") + ".json"
 
 
 @dataclasses.dataclass(frozen=True)
@@ -289,10 +346,11 @@ def evaluation_fit(paths: list[str]) -> tuple[AliveFit, list[tuple[float, float]
 
 def analyse(run: runs.Run, params, key: jax.Array, *, deterministic: bool, draws: int,
             num_latents: int = 10, episodes_per_latent: int = 10,
-            noise_scale: float | None = None, noise_on=None) -> dict:
+            noise_scale: float | None = None, noise_on=None, blind=None) -> dict:
   """The per-seed figures above for one seed's ``params`` (no seed axis); ``noise_scale`` (with
   ``deterministic`` False) scales the sampling noise; ``noise_on``, a boolean per action, keeps it
-  on those actions alone (``noisy_actions``)."""
+  on those actions alone (``noisy_actions``); ``blind``, observation indices the policy sees at
+  their running means (``blinded``)."""
   objective = run.objective
   indices = np.asarray(metrics.eval_indices(objective))
   scale = objective.spec.obs_scale
@@ -300,7 +358,7 @@ def analyse(run: runs.Run, params, key: jax.Array, *, deterministic: bool, draws
   z_key, roll_key, draw_key = jax.random.split(key, 3)
   latents = metrics.latents_for_evaluation(objective, z_key, num_latents)
   num = latents.shape[0]
-  policy = _noisy_policy(run, noise_scale, noise_on)
+  policy = _noisy_policy(run, noise_scale, noise_on, blind)
   before, obs, done = metrics.rollout(
       run.env, policy, params, latents, roll_key, episodes_per_latent=episodes_per_latent,
       deterministic=deterministic,
@@ -338,17 +396,17 @@ def analyse(run: runs.Run, params, key: jax.Array, *, deterministic: bool, draws
 
 def analyse_dmin(run: runs.Run, params, key: jax.Array, *, deterministic: bool,
                  num_episodes: int = 10, every: int | None = None,
-                 noise_scale: float | None = None, noise_on=None) -> dict:
+                 noise_scale: float | None = None, noise_on=None, blind=None) -> dict:
   """The D-min figures of the module's doc for one seed's ``params`` (no seed axis). ``every``:
   the evaluator's (every 10th state, every state in episodes under 200 steps) unless given;
-  ``noise_scale`` and ``noise_on`` as ``analyse``'s."""
+  ``noise_scale``, ``noise_on`` and ``blind`` as ``analyse``'s."""
   spec = run.objective.spec
   if every is None:
     every = 1 if envs.episode_steps(run.env, "fall_analysis") < 200 else 10
   indices = np.asarray(spec.obs_indices)
   target = jnp.asarray(spec.target.samples)[:, :len(indices)]
   last = metrics.scored_steps(run.env)
-  policy = _noisy_policy(run, noise_scale, noise_on)
+  policy = _noisy_policy(run, noise_scale, noise_on, blind)
   before, obs, done = metrics.rollout(
       run.env, policy, params, jnp.zeros((1, 0)), key, episodes_per_latent=num_episodes,
       conditions_policy=False, deterministic=deterministic,
@@ -813,7 +871,8 @@ def draw_joint_noise(path: str, rows: list[tuple[str, int | None, dict]],
 
 
 # The options of a rollout, which the modes that only read what is written refuse.
-ROLLOUT_OPTIONS = ("--seeds", "--deterministic", "--noise-scale", "--noise-on", "--draws")
+ROLLOUT_OPTIONS = ("--seeds", "--deterministic", "--noise-scale", "--noise-on", "--blind",
+                   "--draws")
 
 
 def _refuse(parser, args, why: str, flags: tuple[str, ...]) -> None:
@@ -850,6 +909,10 @@ def main(argv=None) -> int:
                       help="sample only the actions of the joints matching these patterns "
                            "(fnmatch, e.g. '*hip*' '*knee*'; at --noise-scale, default 1), the "
                            "mean action on the others (a diagnostic)")
+  parser.add_argument("--blind", nargs="+", default=None, metavar="PART",
+                      help="hold the observation's parts matching these patterns (fnmatch on "
+                           "obs_layout's names, e.g. actuator_force 'contact_*') at the running "
+                           "means the policy normalises with (a diagnostic)")
   parser.add_argument("--draws", type=int, default=None,
                       help="random subsets for the control (default 5)")
   parser.add_argument("--plot", action="store_true",
@@ -930,16 +993,25 @@ def main(argv=None) -> int:
       noise_on = noisy_actions(names, args.noise_on)
     except ValueError as e:
       parser.error(str(e))
+  blind = None
+  if args.blind:
+    try:
+      blind, blind_parts = blind_indices(envs.unwrap(run.env).obs_layout, args.blind)
+    except ValueError as e:
+      parser.error(str(e))
+    if not np.all(np.asarray(run.params.normalizer.count) > 0):
+      parser.error(f"--blind holds parts at the running means the policy normalises its input "
+                   f"with, and {args.run} kept none (trained without normalize_observations)")
   args.draws = 5 if args.draws is None else args.draws
   if args.draws < 1:
     parser.error("--draws must be at least 1")
   params, keys = common.picked_seeds(run, picked, 1)
   if dmin:
     one = lambda p, k: analyse_dmin(run, p, k, deterministic=args.deterministic,
-                                    noise_scale=args.noise_scale, noise_on=noise_on)
+                                    noise_scale=args.noise_scale, noise_on=noise_on, blind=blind)
   else:
     one = lambda p, k: analyse(run, p, k, deterministic=args.deterministic, draws=args.draws,
-                               noise_scale=args.noise_scale, noise_on=noise_on)
+                               noise_scale=args.noise_scale, noise_on=noise_on, blind=blind)
   values = {k: np.asarray(v).tolist() for k, v in jax.jit(jax.vmap(one))(params, keys).items()}
   result = {"run": os.path.abspath(args.run), "seeds": [run.spec.seeds[p] for p in picked],
             "env_steps": run.env_steps,  # the checkpoint's: a run under training is analysed too
@@ -948,6 +1020,8 @@ def main(argv=None) -> int:
   if noise_on is not None:
     result["noise_on"] = list(args.noise_on)
     result["noisy_joints"] = [n for n, w in zip(names, noise_on) if w]
+  if blind is not None:
+    result["blind"], result["blind_parts"] = list(args.blind), blind_parts
   if dmin:
     spec = run.objective.spec
     target = jnp.asarray(spec.target.samples)[:, :len(spec.obs_indices)]
@@ -963,13 +1037,18 @@ def main(argv=None) -> int:
           else noise_on_name(args.noise_on, args.noise_scale) if args.noise_on
           else "fall_analysis.json" if args.noise_scale is None
           else f"fall_analysis_noise_{args.noise_scale:g}.json")
+  if blind is not None:
+    name = blind_name(args.blind, name)
   out = args.out or os.path.join(args.run, name)
   common.write_json(out, result)
   actions = ("mean" if args.deterministic else "sampled" if args.noise_scale is None
              else f"{args.noise_scale:g} x std sampled")
   if noise_on is not None:
     actions += f" on {', '.join(result['noisy_joints'])} (the mean on the others)"
-  print(f"{run.spec.objective} on {run.spec.env}, seeds {result['seeds']}, {actions} actions")
+  blind_to = ("" if blind is None
+              else f", the policy blind to {', '.join(blind_parts)} (held at their running means)")
+  print(f"{run.spec.objective} on {run.spec.env}, seeds {result['seeds']}, {actions} actions"
+        f"{blind_to}")
   print("| metric | mean +- std over seeds |\n| --- | ---: |")
   for k, v in values.items():
     print(f"| {k} | {np.mean(v):.3f} +- {np.std(v):.3f} |")

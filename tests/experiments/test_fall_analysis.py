@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 from blx import envs, metrics, objectives, training
+from blx.running_stats import RunningStats
 from tests.experiments import load_benchmark
 
 fall_analysis = load_benchmark("fall_analysis")
@@ -112,6 +113,76 @@ def test_noise_on_names_the_joints_by_pattern_and_refuses_a_pattern_that_names_n
     fall_analysis.noisy_actions(names, ["*hip*", "*ankle*"])
   assert fall_analysis.noise_on_name(["*hip*", "*knee*"], None) == "fall_analysis_on_hip_knee.json"
   assert fall_analysis.noise_on_name(["abdomen*"], 0.5) == "fall_analysis_on_abdomen_0.5.json"
+
+
+def test_blind_holds_the_named_parts_at_each_seeds_running_means():
+  layout = {"agent1/root_z": slice(0, 1), "agent1/contact_vel": slice(1, 3),
+            "agent1/contact_ang": slice(3, 5), "agent1/actuator_force": slice(5, 7)}
+  assert fall_analysis.blind_indices(layout, ["contact_*"]) == (
+      [1, 2, 3, 4], ["agent1/contact_vel", "agent1/contact_ang"])
+  # a part named twice counts once; the full name matches too
+  assert fall_analysis.blind_indices(layout, ["agent1/actuator_force", "actuator*"]) == (
+      [5, 6], ["agent1/actuator_force"])
+  with pytest.raises(ValueError, match="'cfrc' matches none of the observation's parts: "
+                     "agent1/root_z, agent1/contact_vel, agent1/contact_ang, "
+                     "agent1/actuator_force"):
+    fall_analysis.blind_indices(layout, ["actuator_force", "cfrc"])
+  assert fall_analysis.blind_name(["contact_*"], "fall_analysis.json") == (
+      "fall_analysis_blind_contact.json")
+  assert fall_analysis.blind_name(["actuator_force", "contact_*"],
+                                  "fall_analysis_deterministic.json") == (
+      "fall_analysis_blind_actuator_force_contact_deterministic.json")
+
+  def sees(params, obs, z=None, key=None, deterministic=True):  # acts what it observes
+    return obs
+
+  # two seeds with their own running means over [obs, z] (the latent's two entries last)
+  mean = jnp.array([[10.0, 11.0, 12.0, 13.0, 14.0, 15.0, 16.0, -1.0, -1.0],
+                    [20.0, 21.0, 22.0, 23.0, 24.0, 25.0, 26.0, -2.0, -2.0]])
+  params = training.PolicyParams(
+      normalizer=RunningStats(jnp.ones(2), mean, jnp.ones_like(mean)), policy=None)
+  obs = jnp.arange(2 * 3 * 7, dtype=jnp.float32).reshape(2, 3, 7)  # [seed, env, obs]
+  out = jax.vmap(fall_analysis.blinded(sees, [1, 2, 5]))(params, obs)
+  for seed in range(2):
+    np.testing.assert_array_equal(out[seed][:, [1, 2, 5]],
+                                  np.broadcast_to(mean[seed, [1, 2, 5]], (3, 3)))
+    np.testing.assert_array_equal(out[seed][:, [0, 3, 4, 6]], obs[seed][:, [0, 3, 4, 6]])
+
+
+def test_the_command_blinds_the_parts_it_names_and_records_them(tmp_path, monkeypatch, capsys):
+  layout = {"agent1/joint_pos": slice(0, 2), "agent1/contact_vel": slice(2, 4),
+            "agent1/actuator_force": slice(4, 6)}
+  count = jnp.ones(3)
+  run = SimpleNamespace(spec=SimpleNamespace(seeds=(0, 1, 2), objective="diayn", env="point"),
+                        objective=objectives.diayn(num_skills=K, obs_indices=(0,)),
+                        env=SimpleNamespace(obs_layout=layout), env_steps=1e6,
+                        params=training.PolicyParams(
+                            normalizer=RunningStats(count, jnp.zeros((3, 6)), jnp.ones((3, 6))),
+                            policy={"w": jnp.arange(3.0)}))
+  monkeypatch.setattr(fall_analysis.runs, "load_run", lambda directory: run)
+  given = []
+
+  def analyse(run, p, k, blind=None, **_):
+    given.append(blind)
+    return {"mi": p.policy["w"], "alive_share": p.policy["w"]}
+
+  monkeypatch.setattr(fall_analysis, "analyse", analyse)
+  fall_analysis.main([str(tmp_path), "--blind", "actuator*", "--deterministic"])
+  assert given == [[4, 5]]
+  written = json.loads((tmp_path / "fall_analysis_blind_actuator_deterministic.json").read_text())
+  assert (written["blind"], written["blind_parts"]) == (["actuator*"], ["agent1/actuator_force"])
+  for bad, says in ((["--blind", "cfrc"], "'cfrc' matches none of the observation's parts"),
+                    (["--by-joints", "--blind", "actuator*"], "--blind is not its")):
+    with pytest.raises(SystemExit):
+      fall_analysis.main([str(tmp_path), *bad])
+    assert says in capsys.readouterr().err
+  # a policy that normalised nothing has no running means to hold the parts at
+  run.params = run.params._replace(normalizer=RunningStats(0 * count, jnp.zeros((3, 6)),
+                                                           jnp.ones((3, 6))))
+  with pytest.raises(SystemExit):
+    fall_analysis.main([str(tmp_path), "--blind", "actuator*"])
+  assert "kept none (trained without normalize_observations)" in capsys.readouterr().err
+  assert len(given) == 1
 
 
 def test_a_write_killed_halfway_leaves_the_last_whole_result(tmp_path, monkeypatch):
