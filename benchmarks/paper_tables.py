@@ -682,10 +682,10 @@ def draw_progress(path: str, *directories: str) -> list[str]:
   budget of env steps, beside the paper's final value (mean ± std): how far a row has come, and
   where it stands against the paper. A finished run's final evaluation (``final_point``: the
   protocol's sizes, which the curve's evaluations during training need not have) is a marker at
-  its last step. Runs drawn together compare like with like: a metric is drawn in Braxlines'
-  window only where every run that logged it logged that window too (a run from before blx logged
-  it has blx's alone), and its panels share one range of values. Returns the panels' titles, row
-  by row."""
+  its last step. Runs of one row (env and algorithm) drawn together compare like with like: a
+  metric is drawn in Braxlines' window only where every such run that logged it logged that window
+  too (a run from before blx logged it has blx's alone), and their panels of it share one range of
+  values. Returns the panels' titles, row by row."""
   import matplotlib
   matplotlib.use("Agg")
   import matplotlib.pyplot as plt
@@ -696,15 +696,18 @@ def draw_progress(path: str, *directories: str) -> list[str]:
     if isinstance(config, str):
       continue
     found.append((name, config, ablations.with_lgr_goals(rows, run_segments(name)), final))
-  # the metrics some run has in blx's window alone: every run draws them there
-  blx_window = frozenset(
-      c[0] for _, config, rows, _ in found
-      for c in _paper_curves(rows, config["env"], config["objective"])
-      if c[3].startswith("blx's") and c[4][0])
+  # per row, the metrics some run of it has in blx's window alone: every run of it draws them there
+  blx_window: dict[tuple[str, str], set[str]] = {}
+  for _, config, rows, _ in found:
+    row = (config["env"], config["objective"])
+    blx_window.setdefault(row, set()).update(
+        c[0] for c in _paper_curves(rows, *row) if c[3].startswith("blx's") and c[4][0])
   panels = []
   for name, config, rows, final in found:
     env, objective = config["env"], config["objective"]
-    curves = [c for c in _paper_curves(rows, env, objective, blx_window) if c[-2][0] or c[-1][0]]
+    curves = [c for c in _paper_curves(rows, env, objective,
+                                       frozenset(blx_window[env, objective]))
+              if c[-2][0] or c[-1][0]]
     if curves:
       base = os.path.basename(name)
       title = f"{env} {objective}" + ("" if base in (objective, f"objective={objective}")
@@ -716,17 +719,17 @@ def draw_progress(path: str, *directories: str) -> list[str]:
         with open(final) as f:
           evaluation = json.load(f)
       panels.append((title + ("" if final else ", under training"),
-                     _budget(rows) or 0.0, curves, evaluation))
+                     _budget(rows) or 0.0, curves, evaluation, (env, objective)))
   if not panels:
     raise ValueError(f"nothing to draw under {', '.join(directories)}: no run there logged the "
                      "paper's metrics of a row of its tables (train with --eval-metrics)")
   titles = []
-  columns = max(len(curves) for _, _, curves, _ in panels)
+  columns = max(len(curves) for _, _, curves, _, _ in panels)
   fig, axes = plt.subplots(len(panels), columns, figsize=(max(5.2 * columns, 7.0),
                                                           3.2 * len(panels) + 0.6),
                            squeeze=False, layout="constrained")
   finals = False
-  for row_axes, (title, budget, curves, evaluation) in zip(axes, panels):
+  for row_axes, (title, budget, curves, evaluation, _) in zip(axes, panels):
     for ax, (key, mean, std, window, curve, other) in zip(row_axes, curves):
       for (steps, m, d), alpha, label in ((curve, 1.0, "blx (mean ± std over seeds)"),
                                           (other, 0.35, None)):
@@ -753,10 +756,10 @@ def draw_progress(path: str, *directories: str) -> list[str]:
       ax.grid(alpha=0.3)
     for ax in row_axes[len(curves):]:
       ax.axis("off")
-  by_key: dict[str, list] = {}  # one range of values per metric, over the rows
-  for row_axes, (_, _, curves, _) in zip(axes, panels):
+  by_key: dict[tuple, list] = {}  # one range of values per metric of a row, over its runs
+  for row_axes, (_, _, curves, _, row) in zip(axes, panels):
     for ax, curve in zip(row_axes, curves):
-      by_key.setdefault(curve[0], []).append(ax)
+      by_key.setdefault((*row, curve[0]), []).append(ax)
   for shared in by_key.values():
     limits = [ax.get_ylim() for ax in shared]
     for ax in shared:

@@ -589,9 +589,15 @@ def test_runs_drawn_together_share_a_window_and_a_range_per_metric(tmp_path, mon
   assert newer_ax.get_ylim() == older_ax.get_ylim()
   assert [min(newer_ax.lines[0].get_ydata()), min(older_ax.lines[0].get_ydata())] == pytest.approx(
       [0.8, 0.15])
-  # alone, the newer run is drawn in Braxlines' window, where the paper's numbers were taken
-  assert paper_tables.draw_progress(png, str(tmp_path / "newer")) == [
-      "humanoid diayn, under training; Braxlines' window"]
+  # beside another row's run alone, the newer run is drawn in Braxlines' window, where the paper's
+  # numbers were taken, with its own range of values
+  _run_dir(tmp_path / "other" / "mimax" / "objective=diayn", "diayn", "ant",
+           [(1e6, 10.0, {"eval/mi": [0.1, 0.2]})], seeds=(0, 1))
+  figures.clear()
+  assert paper_tables.draw_progress(png, str(tmp_path / "newer"), str(tmp_path / "other")) == [
+      "humanoid diayn, under training; Braxlines' window", "ant diayn, under training; blx's window"]
+  (newer_ax, other_ax), = [[a for a in f.axes if a.get_title()] for f in figures]
+  assert newer_ax.get_ylim() != other_ax.get_ylim()
 
 
 def test_a_finished_runs_final_evaluation_is_read_for_its_marker(tmp_path):
