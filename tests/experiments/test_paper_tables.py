@@ -575,7 +575,7 @@ def test_a_row_trained_with_an_env_edit_or_an_objective_option_is_named_as_an_op
 def test_runs_drawn_together_share_a_window_and_a_range_per_metric(tmp_path, monkeypatch):
   # One run logged Braxlines' window for MI, the other (older) blx's alone: drawn together, both
   # are drawn in blx's, and their MI panels share one range of values, so the rows compare.
-  newer = _run_dir(tmp_path / "newer" / "mimax" / "objective=diayn", "diayn", "humanoid", [
+  _run_dir(tmp_path / "newer" / "mimax" / "objective=diayn", "diayn", "humanoid", [
       (1e6, 10.0, {"eval/mi": [0.7, 0.9], "eval/mi_braxlines": [0.2, 0.3]})], seeds=(0, 1))
   _run_dir(tmp_path / "older" / "mimax" / "objective=diayn", "diayn", "humanoid",
            [(1e6, 10.0, {"eval/mi": [0.1, 0.2]})], seeds=(0, 1))
@@ -595,7 +595,8 @@ def test_runs_drawn_together_share_a_window_and_a_range_per_metric(tmp_path, mon
            [(1e6, 10.0, {"eval/mi": [0.1, 0.2]})], seeds=(0, 1))
   figures.clear()
   assert paper_tables.draw_progress(png, str(tmp_path / "newer"), str(tmp_path / "other")) == [
-      "humanoid diayn, under training; Braxlines' window", "ant diayn, under training; blx's window"]
+      "humanoid diayn, under training; Braxlines' window",
+      "ant diayn, under training; blx's window"]
   (newer_ax, other_ax), = [[a for a in f.axes if a.get_title()] for f in figures]
   assert newer_ax.get_ylim() != other_ax.get_ylim()
 
