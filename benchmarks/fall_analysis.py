@@ -189,23 +189,25 @@ def blind_indices(layout: dict[str, slice], patterns: list[str]) -> tuple[list[i
   """The observation indices of the parts of ``layout`` (an env's ``obs_layout``) whose names
   match any of ``patterns`` (fnmatch, on the full name and on the part after the last '/'), and
   those parts' names; each pattern must match one at least."""
-  indices, parts = set(), []
+  names = list(layout)
+  parts = list(dict.fromkeys(  # in the patterns' order, each part once
+      names[i] for hit in _hits(names, patterns, "--blind", "the observation's parts", names)
+      for i in hit))
+  return sorted({i for name in parts for i in range(layout[name].start, layout[name].stop)}), parts
+
+
+def _hits(names, patterns: list[str], flag: str, what: str, shown) -> list[list[int]]:
+  """Per pattern (fnmatch, on a full name or on its part after the last '/'), the positions in
+  ``names`` it matches; a ValueError for one that matches none, naming ``what`` ``flag`` chooses
+  from (``shown``)."""
+  hits = []
   for pattern in patterns:
-    hit = [name for name in layout if _matches(name, pattern)]
+    hit = [i for i, name in enumerate(names) if fnmatch.fnmatchcase(name, pattern)
+           or fnmatch.fnmatchcase(name.rsplit("/", 1)[-1], pattern)]
     if not hit:
-      raise ValueError(f"--blind {pattern!r} matches none of the observation's parts: "
-                       f"{', '.join(layout)}")
-    for name in hit:
-      if name not in parts:
-        parts.append(name)
-        indices.update(range(layout[name].start, layout[name].stop))
-  return sorted(indices), parts
-
-
-def _matches(name: str, pattern: str) -> bool:
-  """Whether ``pattern`` (fnmatch) matches ``name`` or its part after the last '/'."""
-  return (fnmatch.fnmatchcase(name, pattern)
-          or fnmatch.fnmatchcase(name.rsplit("/", 1)[-1], pattern))
+      raise ValueError(f"{flag} {pattern!r} matches none of {what}: {', '.join(shown)}")
+    hits.append(hit)
+  return hits
 
 
 def _slug(patterns: list[str]) -> str:
@@ -217,12 +219,9 @@ def noisy_actions(names: tuple[str, ...], patterns: list[str]) -> np.ndarray:
   """Which of the actions driving joints ``names`` match any of ``patterns`` (fnmatch, on the full
   name and on the part after the last '/'); each pattern must match one at least."""
   where = np.zeros(len(names), bool)
-  for pattern in patterns:
-    hit = np.array([_matches(n, pattern) for n in names], bool)
-    if not hit.any():
-      raise ValueError(f"--noise-on {pattern!r} matches none of the actuated joints: "
-                       f"{', '.join(n.rsplit('/', 1)[-1] for n in names)}")
-    where |= hit
+  for hit in _hits(names, patterns, "--noise-on", "the actuated joints",
+                   [n.rsplit("/", 1)[-1] for n in names]):
+    where[hit] = True
   return where
 
 
