@@ -7,7 +7,7 @@
                                       [--eval-protocol quick|final]
     python benchmarks/paper_tables.py --compare DIR [DIR ...] [--plot PNG]  # every eval.json
     python benchmarks/paper_tables.py --progress DIR [DIR ...] [--plot PNG]  # rows under way
-    python benchmarks/paper_tables.py --paired A B   # two final evaluations of a row, by seed
+    python benchmarks/paper_tables.py --paired A B [--at STEPS]  # two evaluations, by seed
 
 ``--objective`` trains only that algorithm's point (one process per GPU:
 ``CUDA_VISIBLE_DEVICES=i python benchmarks/paper_tables.py --objective NAME &`` for each), and
@@ -28,7 +28,10 @@ Below its verdicts ``--compare`` splits each MI-max row's MI gap into its H(s) a
 paper's values (``draw_compare``), ``--progress DIR ... --plot PNG`` their curves
 (``draw_progress``).
 ``--paired A B`` compares two final evaluations of one row (``eval.json`` files or run directories)
-seed by seed, e.g. an option's arm against the paper's row trained on the same seed numbers.
+seed by seed, e.g. an option's arm against the paper's row trained on the same seed numbers; with
+``--at STEPS``, the two runs' evaluations during training at STEPS env steps per seed (their
+``metrics.csv``, logged with ``--eval-metrics``: ``logged_at``), e.g. an arm stopped early against
+the row at the same steps.
 ``--first-seed N`` trains seeds N .. N + seeds - 1, so that one row's seeds can be split over
 processes or device calls; ``--compare DIR1 DIR2`` then merges the ``eval.json`` files found at the
 same path under each directory into one row (their seeds must not overlap; files at one path that
@@ -300,8 +303,8 @@ def eval_settings(eval_path: str) -> tuple[dict[str, tuple], list[str]]:
   """The settings of the run of the ``eval.json`` at ``eval_path`` that are not the original's
   (``trained_off_row``), from the ``config.json`` beside it, and its ``options_line`` and
   ``length_line``; or ``{}`` and a line saying its config could not be read; ``({}, [])`` where it
-  has none."""
-  prefix = eval_path[:-len("eval.json")]
+  has none. The same for a ``metrics.csv`` at ``eval_path``."""
+  prefix = eval_path[:-len("metrics.csv" if eval_path.endswith("metrics.csv") else "eval.json")]
   if not os.path.exists(prefix + "config.json"):
     return {}, []
   config = read_config(prefix)
@@ -850,8 +853,9 @@ def lower_is_better(metric: str) -> bool:
   return any(word in metric for word in LOWER_IS_BETTER)
 
 
-# Metrics ``paired`` reads beside the paper's, where both evaluations hold them: an MI's two parts.
-PAIRED_EXTRA = ("eval/conditional_entropy",)
+# Metrics ``paired`` reads beside the paper's, where both evaluations hold them: an MI's two parts,
+# and the share of episodes that ran to the end (a body that falls ends its episode).
+PAIRED_EXTRA = ("eval/conditional_entropy", "eval/alive_share")
 
 
 def paired(a: dict, b: dict, names: tuple[str, str] = ("A", "B")) -> list[str]:
@@ -898,24 +902,92 @@ def paired(a: dict, b: dict, names: tuple[str, str] = ("A", "B")) -> list[str]:
   return lines
 
 
-def paired_report(path_a: str, path_b: str) -> str:
+# How far from ``--at``'s env steps an evaluation during training may lie and still be taken for it.
+AT_TOLERANCE = 0.02
+
+
+def read_metrics(path: str) -> str:
+  """The ``metrics.csv`` (or a committed row's ``NAME_metrics.csv``) at ``path``, a file or a
+  directory holding exactly one (searched below it). ``ValueError`` naming what was found
+  otherwise."""
+  if os.path.isdir(path):
+    found = sorted(glob.glob(os.path.join(path, "**", "*metrics.csv"), recursive=True))
+    if len(found) != 1:
+      raise ValueError(f"{path}: {len(found)} metrics.csv files under it "
+                       f"({', '.join(found) or 'none'}); give a run directory holding one, or "
+                       "the file")
+    path = found[0]
+  if not os.path.isfile(path) or not path.endswith("metrics.csv"):
+    raise ValueError(f"{path}: neither a metrics.csv file nor a directory holding one")
+  return path
+
+
+def logged_at(path: str, steps: float) -> tuple[str, dict]:
+  """One run's evaluation during training (its ``metrics.csv``, logged with ``--eval-metrics``)
+  at ``steps`` env steps per seed, in the form of a final evaluation (``eval.json``: ``env``,
+  ``objective``, ``seeds``, ``per_seed`` and ``evaluated_on``, the LGR's goals as the run's
+  provenance records them), so that ``paired`` reads it: ``(the metrics.csv's path, that
+  evaluation)``. ``path`` as ``read_metrics`` takes it. The evaluation is the one every seed
+  reached nearest ``steps``, within ``AT_TOLERANCE`` of it; ``per_seed`` holds every ``eval/``
+  metric that every seed logged there. ``ValueError`` where the run has no config, or no such
+  evaluation (naming those it has)."""
+  import ablations  # its curves; it imports this module, so not at the top
+  file = read_metrics(path)
+  name, config, rows, _ = logged_run(file)
+  if isinstance(config, str):
+    raise ValueError(f"{file}: {config}")
+  env, objective = config["env"], config["objective"]
+  first = next((key.lstrip("-") for key in PAPER.get(env, {}).get(objective, {})), "eval/mi")
+  values = ablations.by_step(rows, first)
+  logged_steps = ablations.complete_steps(values)
+  near = min(logged_steps, key=lambda s: abs(s - steps), default=None)
+  if near is None or abs(near - steps) > AT_TOLERANCE * steps:
+    listed = ", ".join(f"{s / 1e6:.2f} M" for s in logged_steps) or "none"
+    raise ValueError(f"{file}: no evaluation of {first} that every seed reached at "
+                     f"{steps / 1e6:.2f} M env steps (within {AT_TOLERANCE:.0%}); it has {listed}")
+  seeds = sorted(values[near])
+  per_seed = {}
+  for key in sorted({key for row in rows for key in row if key.startswith("eval/")}):
+    at = ablations.by_step(rows, key).get(near, {})
+    if set(at) == set(seeds):
+      per_seed[key] = [at[seed] for seed in seeds]
+  segment = runs.segment_at(run_segments(name), near)
+  return file, dict(env=env, objective=objective, seeds=seeds, per_seed=per_seed, env_steps=near,
+                    evaluated_on={"lgr_goals": segment.lgr_goals if segment else None})
+
+
+def paired_report(path_a: str, path_b: str, at: float | None = None) -> str:
   """``paired`` for two ``eval.json`` files or run directories, with each one's settings that are
   not the original's (``options_line``) and its length where it is not the paper's
-  (``length_line``) below the table."""
-  (file_a, a), (file_b, b) = read_eval(path_a), read_eval(path_b)
+  (``length_line``) below the table. With ``at``, their evaluations during training at ``at`` env
+  steps per seed (``logged_at``: ``metrics.csv`` files or run directories) rather than their
+  final ones."""
+  if at is None:
+    (file_a, a), (file_b, b) = read_eval(path_a), read_eval(path_b)
+  else:
+    (file_a, a), (file_b, b) = logged_at(path_a, at), logged_at(path_b, at)
+    if a["env_steps"] != b["env_steps"]:
+      raise ValueError(f"{file_a} was evaluated at {a['env_steps']:,.0f} env steps, {file_b} at "
+                       f"{b['env_steps']:,.0f}: pair evaluations at the same steps")
   names = (_short(file_a), _short(file_b))
   if names[0] == names[1]:
     names = ("A", "B")
-  lines = [f"{names[0]}: {file_a} against {names[1]}: {file_b}, paired by seed:", ""]
+  when = ("" if at is None else
+          f" at {a['env_steps'] / 1e6:.2f} M env steps per seed (evaluations during training)")
+  lines = [f"{names[0]}: {file_a} against {names[1]}: {file_b}, paired by seed{when}:", ""]
   lines += paired(a, b, names=names)
   notes = eval_options(file_a) + eval_options(file_b)
   return "\n".join(lines + ([""] + notes if notes else []))
 
 
 def _short(path: str) -> str:
-  """A column name for an eval.json: its run directory's name, or the file's prefix."""
+  """A column name for an eval.json or a metrics.csv: its run directory's name, or the file's
+  prefix."""
   head, tail = os.path.split(path)
-  return tail[:-len("_eval.json")] if tail.endswith("_eval.json") else os.path.basename(head)
+  for suffix in ("_eval.json", "_metrics.csv"):
+    if tail.endswith(suffix):
+      return tail[:-len(suffix)]
+  return os.path.basename(head)
 
 
 def main():
@@ -950,6 +1022,10 @@ def main():
                       help="only compare two final evaluations of one row (eval.json files or "
                            "run directories holding one), paired by seed: e.g. an option's arm "
                            "against the paper's row")
+  parser.add_argument("--at", type=float, default=None, metavar="STEPS",
+                      help="with --paired: pair the two runs' evaluations during training at "
+                           "STEPS env steps per seed (their metrics.csv, logged with "
+                           "--eval-metrics; e.g. 31.5e6) rather than their final ones")
   parser.add_argument("--progress", nargs="+", default=None, metavar="DIR",
                       help="only print where the runs under DIR stand during training (their "
                            "metrics.csv, logged with --eval-metrics) against the paper")
@@ -963,9 +1039,13 @@ def main():
   if args.paired and args.plot:
     parser.error("--plot draws the rows of --compare or of --progress, not --paired's two "
                  "evaluations: leave it out, or draw them with --compare")
+  if args.at is not None and not args.paired:
+    parser.error("--at picks the evaluations --paired pairs: give --paired A B with it")
+  if args.at is not None and args.at <= 0:
+    parser.error(f"--at: env steps per seed must be positive, got {args.at:g}")
   if args.paired:
     try:
-      print(paired_report(*args.paired))
+      print(paired_report(*args.paired, at=args.at))
     except ValueError as e:
       parser.error(f"--paired: {e}")
     return

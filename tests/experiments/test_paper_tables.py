@@ -418,6 +418,61 @@ def _run_dir(path, objective, env, evaluations, seeds=(0, 1, 2), budget=10e6):
   return path
 
 
+def test_paired_at_pairs_two_runs_evaluations_during_training_at_the_same_env_steps(
+    tmp_path, monkeypatch, capsys):
+  # Two runs of one row, evaluated every 5 M env steps; the arm's seed 2 has not reached 15 M.
+  row = _run_dir(tmp_path / "row" / "objective=diayn", "diayn", "humanoid", [
+      (5e6, 10.0, {"eval/mi": [0.10, 0.12, 0.11], "eval/alive_share": [0.0, 0.1, 0.0]}),
+      (10e6, 20.0, {"eval/mi": [0.15, 0.14, 0.16], "eval/alive_share": [0.0, 0.0, 0.1]}),
+      (15e6, 30.0, {"eval/mi": [0.2, 0.2, 0.2]})])
+  arm = _run_dir(tmp_path / "arm" / "objective=diayn", "diayn", "humanoid", [
+      (5e6, 10.0, {"eval/mi": [0.11, 0.12, 0.10], "eval/alive_share": [0.0, 0.0, 0.0]}),
+      (10e6, 20.0, {"eval/mi": [0.30, 0.25, 0.40], "eval/alive_share": [0.2, 0.3, 0.1],
+                    "loss/total": [1.0, 1.0, 1.0]}),
+      (15e6, 30.0, {"eval/mi": [0.5, 0.6]})])
+  file, at = paper_tables.logged_at(str(tmp_path / "arm"), 10.1e6)  # the nearest evaluation
+  assert file == str(arm / "metrics.csv")
+  assert at["env_steps"] == 10e6 and at["seeds"] == [0, 1, 2]
+  assert at["per_seed"] == {"eval/mi": [0.30, 0.25, 0.40], "eval/alive_share": [0.2, 0.3, 0.1]}
+  text = paper_tables.paired_report(str(tmp_path / "arm"), str(row / "metrics.csv"), at=10e6)
+  assert "paired by seed at 10.00 M env steps per seed (evaluations during training)" in text
+  ref = stats.ttest_rel([0.30, 0.25, 0.40], [0.15, 0.14, 0.16])
+  assert (f"| eval/mi | 0.317 ± 0.062 | 0.150 ± 0.008 | +0.167 | {ref.statistic:+.2f} "
+          f"| {ref.pvalue:.4f} |") in text
+  # the share of episodes run to the end goes beside the paper's metrics, where both logged it
+  assert "| eval/alive_share | 0.200 ± 0.082 | 0.033 ± 0.047 | +0.167 |" in text
+  # 15 M is not an evaluation every seed of the arm reached; 12 M is no evaluation of either
+  with pytest.raises(ValueError, match=r"no evaluation of eval/mi that every seed reached at "
+                                       r"15.00 M .*it has 5.00 M, 10.00 M$"):
+    paper_tables.logged_at(str(arm / "metrics.csv"), 15e6)
+  with pytest.raises(ValueError, match="at 12.00 M env steps"):
+    paper_tables.paired_report(str(arm), str(row), at=12e6)
+  with pytest.raises(ValueError, match="2 metrics.csv files under it"):
+    paper_tables.read_metrics(str(tmp_path))
+  with pytest.raises(ValueError, match="neither a metrics.csv file nor a directory"):
+    paper_tables.read_metrics(str(row / "config.json"))
+  for argv, message in ((["--at", "10e6"], "give --paired A B with it"),
+                        (["--paired", str(arm), str(row), "--at", "0"], "must be positive"),
+                        (["--paired", str(arm), str(row), "--at", "12e6"], "--paired: ")):
+    monkeypatch.setattr("sys.argv", ["paper_tables.py", *argv])
+    with pytest.raises(SystemExit):
+      paper_tables.main()
+    assert message in capsys.readouterr().err
+
+
+def test_paired_at_refuses_evaluations_at_different_env_steps(tmp_path):
+  # evaluations 0.1 M apart both lie within 2 % of 10 M, but a pairing is at one number of steps
+  a = _run_dir(tmp_path / "a", "diayn", "ant", [(10e6, 1.0, {"eval/mi": [0.3, 0.4]})], seeds=(0, 1))
+  b = _run_dir(tmp_path / "b", "diayn", "ant", [(10.1e6, 1.0, {"eval/mi": [0.1, 0.2]})],
+               seeds=(0, 1))
+  with pytest.raises(ValueError, match="evaluated at 10,000,000 env steps, .* at 10,100,000"):
+    paper_tables.paired_report(str(a), str(b), at=10e6)
+  (tmp_path / "c").mkdir()
+  (tmp_path / "c" / "metrics.csv").write_text("seed,env_steps,eval/mi\n0,1,0.5\n")
+  with pytest.raises(ValueError, match="no config.json beside its metrics.csv"):
+    paper_tables.logged_at(str(tmp_path / "c"), 1)
+
+
 def test_progress_reads_a_row_under_training_at_its_last_evaluation_every_seed_reached(tmp_path):
   key = "eval/energy_distance"  # HalfCheetah GAIL: the paper's 0.516 ± 0.640, lower is better
   run = _run_dir(tmp_path / "hc_gail" / "dmin" / "objective=gail", "gail", "halfcheetah", [
