@@ -243,9 +243,10 @@ def desc_off_row(config: dict) -> dict[str, tuple]:
   """The env edits (``--env-edits``) and objective options (``--options``) of a run's
   ``config.json`` that are not its row's: ``{"env PATH": (the run's, the env's), "objective KEY":
   (the run's, the row's)}``. The env's value is that of its registered desc, or the composer's
-  default for a global option the desc leaves out; the row's option is the one ``specs`` sets,
-  else the preset's default. "unset" stands for a value neither has. An edit or option that
-  restates the original's is not named; a run of an objective no row trains names none."""
+  default for a global option the desc leaves out, or the component's default observers where the
+  desc names none (``_default_observers``); the row's option is the one ``specs`` sets, else the
+  preset's default. "unset" stands for a value neither has. An edit or option that restates the
+  original's is not named; a run of an objective no row trains names none."""
   from blx import envs, objectives
   from blx.envs.composer import GLOBAL_OPTIONS
   same = lambda a, b: json.dumps(a, sort_keys=True) == json.dumps(b, sort_keys=True)
@@ -259,6 +260,8 @@ def desc_off_row(config: dict) -> dict[str, tuple]:
         node = node.get(key, _UNSET) if isinstance(node, dict) else _UNSET
       if node == _UNSET and keys[0] == "global_options" and len(keys) == 2:
         node = GLOBAL_OPTIONS.get(keys[1], _UNSET)
+      if node == _UNSET and len(keys) == 3 and keys[0] == "components" and keys[2] == "observers":
+        node = _default_observers(desc.get("components", {}).get(keys[1]))
       if not same(value, node):
         out[f"env {path}"] = (value, node)
   row = next((spec["options"] for spec in specs(1, env=config["env"]).values()
@@ -270,6 +273,17 @@ def desc_off_row(config: dict) -> dict[str, tuple]:
       if not same(given[key], original.get(key, _UNSET)):
         out[f"objective {key}"] = (given[key], original.get(key, _UNSET))
   return out
+
+
+def _default_observers(component: dict | None) -> list | str:
+  """The observers a component of an env's desc has where the desc names none: its registered
+  component's defaults (``blx.envs.components.make_component``); "unset" where the desc has no
+  such component."""
+  from blx.envs import components
+  if not isinstance(component, dict) or "component" not in component:
+    return _UNSET
+  spec = components.make_component(component["component"], component.get("component_params"))
+  return runs.as_json(list(spec.observers))
 
 
 def options_line(name: str, changed: dict[str, tuple]) -> list[str]:

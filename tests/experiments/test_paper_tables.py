@@ -614,6 +614,15 @@ def test_a_row_trained_with_an_env_edit_or_an_objective_option_is_named_as_an_op
            "objective_options": {"made_up": 1}}
   assert paper_tables.desc_off_row(novel) == {"env components.agent1.pos": ([0, 0, 1], "unset"),
                                               "objective made_up": (1, "unset")}
+  # observers the desc leaves to its component: the original's are the component's defaults, and
+  # an edit that restates them is no option
+  humanoid = {"env": "humanoid", "objective": "diayn"}
+  for observers, named in ((["root_z_joints", "cfrc"], True), (["root_z_joints"], False)):
+    config = {**humanoid, "env_params": {"edits": {"components.agent1.observers": observers}}}
+    assert paper_tables.desc_off_row(config) == ({"env components.agent1.observers": (
+        observers, ["root_z_joints"])} if named else {})
+  lost = {**humanoid, "env_params": {"edits": {"components.agent9.observers": ["qp"]}}}
+  assert paper_tables.desc_off_row(lost) == {"env components.agent9.observers": (["qp"], "unset")}
   text = paper_tables.progress(str(tmp_path))
   assert (f"{runs_['iterations'][0]}: settings not the original's: env global_options.iterations "
           "4 (the original's: 1). An option's result, not the paper's row.") in text
