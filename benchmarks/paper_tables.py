@@ -873,12 +873,13 @@ PAIRED_EXTRA = ("eval/conditional_entropy", "eval/alive_share")
 
 
 def paired(a: dict, b: dict, names: tuple[str, str] = ("A", "B")) -> list[str]:
-  """Markdown rows: the final evaluations ``a`` and ``b`` of one env and algorithm (say, an option's
-  arm against the paper's row) on the seeds they share, paired by seed number (shared initial
-  parameters and keys, not trajectories): per metric (the paper's for the row, then
-  ``PAIRED_EXTRA``) each mean ± std (numpy's), the mean difference, the paired t-test, Welch's, and
-  in how many seeds ``a`` is the better (larger, or smaller for an LGR, an energy distance or a
-  conditional entropy). ``ValueError`` where they are not one row or share fewer than two seeds."""
+  """Markdown rows: the evaluations ``a`` and ``b`` of one env and algorithm (final ones, or
+  ``logged_at``'s during training; say, an option's arm against the paper's row) on the seeds they
+  share, paired by seed number (shared initial parameters and keys, not trajectories): per metric
+  (the paper's for the row, then ``PAIRED_EXTRA``) each mean ± std (numpy's), the mean difference,
+  the paired t-test, Welch's, and in how many seeds ``a`` is the better (larger, or smaller for an
+  LGR, an energy distance or a conditional entropy). ``ValueError`` where they are not one row or
+  share fewer than two seeds."""
   from scipy import stats
   row_a = (a.get("env", "ant"), a["objective"])
   row_b = (b.get("env", "ant"), b["objective"])
@@ -956,7 +957,8 @@ def logged_at(path: str, steps: float) -> tuple[str, dict]:
   logged_steps = ablations.complete_steps(values)
   near = min(logged_steps, key=lambda s: abs(s - steps), default=None)
   if near is None or abs(near - steps) > AT_TOLERANCE * steps:
-    listed = ", ".join(f"{s / 1e6:.2f} M" for s in logged_steps) or "none"
+    listed = (", ".join(f"{s / 1e6:.2f} M" for s in logged_steps)
+              or "none (a run trained without --eval-metrics logs none)")
     raise ValueError(f"{file}: no evaluation of {first} that every seed reached at "
                      f"{steps / 1e6:.2f} M env steps (within {AT_TOLERANCE:.0%}); it has {listed}")
   seeds = sorted(values[near])

@@ -471,6 +471,11 @@ def test_paired_at_refuses_evaluations_at_different_env_steps(tmp_path):
   (tmp_path / "c" / "metrics.csv").write_text("seed,env_steps,eval/mi\n0,1,0.5\n")
   with pytest.raises(ValueError, match="no config.json beside its metrics.csv"):
     paper_tables.logged_at(str(tmp_path / "c"), 1)
+  # a run that logged no paper metric during training says why
+  d = _run_dir(tmp_path / "d", "diayn", "ant", [(10e6, 1.0, {"loss/total": [1.0, 2.0]})],
+               seeds=(0, 1))
+  with pytest.raises(ValueError, match=r"it has none \(a run trained without --eval-metrics"):
+    paper_tables.logged_at(str(d), 10e6)
 
 
 def test_progress_reads_a_row_under_training_at_its_last_evaluation_every_seed_reached(tmp_path):
