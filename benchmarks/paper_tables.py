@@ -844,17 +844,26 @@ def specs(seeds: int, edits: dict | None = None, config: dict | None = None,
 def read_eval(path: str) -> tuple[str, dict]:
   """The ``eval.json`` at ``path``, a file or a directory holding exactly one (searched below it):
   ``(the file's path, its contents)``. ``ValueError`` naming what was found otherwise."""
+  path = _one_file(path, "eval.json")
+  with open(path) as f:
+    return path, json.load(f)
+
+
+def _one_file(path: str, kind: str, suffixed: bool = False) -> str:
+  """``path`` where it is a file (named ``*KIND``, with ``suffixed``), else the one ``*KIND`` file
+  below the directory ``path`` (e.g. ``eval.json``: a run's, or a committed row's
+  ``NAME_eval.json``). ``ValueError`` naming what was found otherwise."""
   if os.path.isdir(path):
-    found = eval_files(path)
+    found = sorted(glob.glob(os.path.join(path, "**", f"*{kind}"), recursive=True))
     if len(found) != 1:
-      raise ValueError(f"{path}: {len(found)} eval.json files under it "
+      raise ValueError(f"{path}: {len(found)} {kind} files under it "
                        f"({', '.join(found) or 'none'}); give a run directory holding one, or "
                        "the file")
     path = found[0]
-  if not os.path.isfile(path):
-    raise ValueError(f"{path}: neither an eval.json file nor a directory holding one")
-  with open(path) as f:
-    return path, json.load(f)
+  if not os.path.isfile(path) or (suffixed and not path.endswith(kind)):
+    article = "an" if kind[0] in "aeiou" else "a"
+    raise ValueError(f"{path}: neither {article} {kind} file nor a directory holding one")
+  return path
 
 
 # Metrics where lower is better (a rise is worse), matched by name so that a metric's variants
@@ -925,16 +934,7 @@ def read_metrics(path: str) -> str:
   """The ``metrics.csv`` (or a committed row's ``NAME_metrics.csv``) at ``path``, a file or a
   directory holding exactly one (searched below it). ``ValueError`` naming what was found
   otherwise."""
-  if os.path.isdir(path):
-    found = sorted(glob.glob(os.path.join(path, "**", "*metrics.csv"), recursive=True))
-    if len(found) != 1:
-      raise ValueError(f"{path}: {len(found)} metrics.csv files under it "
-                       f"({', '.join(found) or 'none'}); give a run directory holding one, or "
-                       "the file")
-    path = found[0]
-  if not os.path.isfile(path) or not path.endswith("metrics.csv"):
-    raise ValueError(f"{path}: neither a metrics.csv file nor a directory holding one")
-  return path
+  return _one_file(path, "metrics.csv", suffixed=True)
 
 
 def logged_at(path: str, steps: float) -> tuple[str, dict]:
