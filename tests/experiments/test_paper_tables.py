@@ -441,6 +441,14 @@ def test_paired_at_pairs_two_runs_evaluations_during_training_at_the_same_env_st
           f"| {ref.pvalue:.4f} |") in text
   # the share of episodes run to the end goes beside the paper's metrics, where both logged it
   assert "| eval/alive_share | 0.200 ± 0.082 | 0.033 ± 0.047 | +0.167 |" in text
+  # an arm's setting that is not the original's is named from the config beside its metrics.csv
+  config = json.loads((arm / "config.json").read_text())
+  config["env_params"] = {"edits": {"components.agent1.observers": ["root_z_joints", "cfrc"]}}
+  (arm / "config.json").write_text(json.dumps(config))
+  text = paper_tables.paired_report(str(arm), str(row), at=10e6)
+  assert text.splitlines()[-1] == (
+      f"{arm}: settings not the original's: env components.agent1.observers ['root_z_joints', "
+      "'cfrc'] (the original's: ['root_z_joints']). An option's result, not the paper's row.")
   # 15 M is not an evaluation every seed of the arm reached; 12 M is no evaluation of either
   with pytest.raises(ValueError, match=r"no evaluation of eval/mi that every seed reached at "
                                        r"15.00 M .*it has 5.00 M, 10.00 M$"):
