@@ -549,9 +549,19 @@ def logged(*directories: str) -> list[tuple[str, dict | str, list[dict], str | N
   finished, else None. A run directory's ``metrics.csv`` goes with its ``config.json`` and
   ``eval.json``; a committed row's ``NAME_metrics.csv`` (as under ``benchmarks/paper/``) with
   ``NAME_config.json`` and ``NAME_eval.json``. ``config`` is the run's config (its ``env`` and
-  ``objective``), or a string saying why it cannot be read."""
-  paths = sorted({path for directory in directories for path in
-                  glob.glob(os.path.join(directory, "**", "*metrics.csv"), recursive=True)})
+  ``objective``), or a string saying why it cannot be read. A path that is itself a
+  ``metrics.csv`` or ``NAME_metrics.csv`` file stands for that one run (one committed row of a
+  directory that holds several)."""
+  found: set[str] = set()
+  for directory in directories:
+    if os.path.isfile(directory):
+      if not directory.endswith("metrics.csv"):
+        raise ValueError(f"{directory} is a file but not a metrics.csv: give run directories, "
+                         "a run's metrics.csv or a committed row's NAME_metrics.csv")
+      found.add(directory)
+    else:
+      found.update(glob.glob(os.path.join(directory, "**", "*metrics.csv"), recursive=True))
+  paths = sorted(found)
   if not paths:
     raise ValueError(f"no metrics.csv under {', '.join(directories)}: give run directories, or "
                      "the --out of paper_tables.py")
@@ -1044,7 +1054,8 @@ def main():
                            "--eval-metrics; e.g. 31.5e6) rather than their final ones")
   parser.add_argument("--progress", nargs="+", default=None, metavar="DIR",
                       help="only print where the runs under DIR stand during training (their "
-                           "metrics.csv, logged with --eval-metrics) against the paper")
+                           "metrics.csv, logged with --eval-metrics) against the paper; DIR may "
+                           "also be one run's metrics.csv (a committed row's NAME_metrics.csv)")
   parser.add_argument("--plot", default=None, metavar="PNG",
                       help="with --compare: also draw each row's final evaluation beside the "
                            "paper's value into PNG; with --progress: each run's curves")

@@ -759,6 +759,16 @@ def test_progress_reads_committed_rows_and_draws_each_against_the_paper(tmp_path
     os.replace(rows / runs.PROVENANCE, rows / "diayn_provenance.json")
     assert (note in paper_tables.progress(str(rows))) == named
   assert note not in paper_tables.progress(str(tmp_path / "hc_gail"))  # D-min: no LGR
+  # one committed row of a directory that holds several: its NAME_metrics.csv alone
+  (rows / "gail_metrics.csv").write_text((tmp_path / "hc_gail" / "dmin" / "objective=gail" /
+                                          "metrics.csv").read_text())
+  assert [name for name, *_ in paper_tables.logged(str(rows))] == [
+      str(rows / "diayn"), str(rows / "gail")]
+  assert [name for name, *_ in paper_tables.logged(str(rows / "diayn_metrics.csv"))] == [
+      str(rows / "diayn")]
+  with pytest.raises(ValueError, match="diayn_eval.json is a file but not a metrics.csv"):
+    paper_tables.logged(str(rows / "diayn_eval.json"))
+  (rows / "gail_metrics.csv").unlink()
   png = tmp_path / "progress.png"
   titles = paper_tables.draw_progress(str(png), str(tmp_path))
   assert titles == ["halfcheetah diayn; Braxlines' window"] * 2 + [
