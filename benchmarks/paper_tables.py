@@ -20,7 +20,8 @@ are not the original's (``blx.training.config.off_row``, from its provenance's r
 setting it trained with, else its ``config.json``: ``trained_off_row``), but for how its return
 episodes act (``eval_actions``), which the paper's metrics do not depend on; and its env edits and
 objective options that are not the row's (``desc_off_row``: "env global_options.iterations 4 (the
-original's: 1)"). ``--compare`` and ``--paired`` also name a row trained for other env steps per
+original's: 1)"), and the observers a run's config held where its env's have changed since ("older
+env components.agent1.observers ...": the humanoid's rows before 2026-12-06). ``--compare`` and ``--paired`` also name a row trained for other env steps per
 seed than the paper's (``--steps``; ``length_line``): a length is not a setting of how it learns,
 but a row at twice the paper's steps is not the paper's row either.
 Below its verdicts ``--compare`` splits each MI-max row's MI gap into its H(s) and H(s|z) parts
@@ -246,7 +247,8 @@ def desc_off_row(config: dict) -> dict[str, tuple]:
   default for a global option the desc leaves out, or the component's default observers where the
   desc names none (``_default_observers``); the row's option is the one ``specs`` sets, else the
   preset's default. "unset" stands for a value neither has. An edit or option that restates the
-  original's is not named; a run of an objective no row trains names none."""
+  original's is not named; a run of an objective no row trains names none. Then the observers its
+  config's desc held where its env's have changed since (``_older_observers``)."""
   from blx import envs, objectives
   from blx.envs.composer import GLOBAL_OPTIONS
   same = lambda a, b: json.dumps(a, sort_keys=True) == json.dumps(b, sort_keys=True)
@@ -264,6 +266,7 @@ def desc_off_row(config: dict) -> dict[str, tuple]:
         node = _default_observers(desc.get("components", {}).get(keys[1]))
       if not same(value, node):
         out[f"env {path}"] = (value, node)
+  out.update(_older_observers(config, edits))
   row = next((spec["options"] for spec in specs(1, env=config["env"]).values()
               if config["objective"] in spec["objective"]), None)
   if row is not None:
@@ -272,6 +275,32 @@ def desc_off_row(config: dict) -> dict[str, tuple]:
     for key in sorted(given):
       if not same(given[key], original.get(key, _UNSET)):
         out[f"objective {key}"] = (given[key], original.get(key, _UNSET))
+  return out
+
+
+OLDER = "older env"  # desc_off_row's key of a setting blx's env had when the run was configured
+
+
+def _older_observers(config: dict, edits: dict) -> dict[str, tuple]:
+  """The observers a run's components had by its ``config.json``'s desc, where they are not its
+  registered env's now and no edit of the run names them: ``{"older env components.NAME.observers":
+  (the run's, the env's now)}``. A registered env's observation can grow after runs were
+  configured (the humanoid's did, by Brax's contacts and motors' part, on 2026-12-06); such a run
+  is rebuilt from its desc as it trained, and is not the row as blx builds it now."""
+  from blx import envs
+  stored = config.get("desc")
+  if not isinstance(stored, dict) or config.get("env") not in envs.list_envs():
+    return {}
+  observers = lambda component: (component["observers"] if isinstance(component, dict)
+                                 and "observers" in component
+                                 else _default_observers(component))
+  out = {}
+  for name, component in (envs.get_desc(config["env"]).get("components") or {}).items():
+    path = f"components.{name}.observers"
+    trained = observers((stored.get("components") or {}).get(name))
+    now = observers(component)
+    if path not in edits and trained != _UNSET and runs.as_json(trained) != runs.as_json(now):
+      out[f"{OLDER} {path}"] = (runs.as_json(trained), runs.as_json(now))
   return out
 
 
@@ -291,8 +320,10 @@ def options_line(name: str, changed: dict[str, tuple]) -> list[str]:
   ``trained_off_row`` gives them), or none."""
   named = [f"{key} {value} (the original's: {default})"
            for key, (value, default) in changed.items()]
-  return ([f"{name}: settings not the original's: {'; '.join(named)}. An option's result, not "
-           "the paper's row."] if named else [])
+  older = all(key.startswith(OLDER) for key in changed)
+  verdict = ("Trained on blx's older env, not the paper's row as blx builds it now." if older else
+             "An option's result, not the paper's row.")
+  return [f"{name}: settings not the original's: {'; '.join(named)}. {verdict}"] if named else []
 
 
 def length_line(name: str, config: dict) -> list[str]:
@@ -739,8 +770,12 @@ def draw_progress(path: str, *directories: str) -> list[str]:
       base = os.path.basename(name)
       title = f"{env} {objective}" + ("" if base in (objective, f"objective={objective}")
                                       else f" ({base})")
-      changed = [f"{key} {value}" for key, (value, _) in trained_off_row(name, config).items()]
-      title += f", option {', '.join(changed)}" if changed else ""
+      changed = trained_off_row(name, config)
+      options = [f"{key} {value}" for key, (value, _) in changed.items()
+                 if not key.startswith(OLDER)]
+      title += f", option {', '.join(options)}" if options else ""
+      title += "".join(f", {key} {value}" for key, (value, _) in changed.items()
+                       if key.startswith(OLDER))
       evaluation = None
       if final:
         with open(final) as f:

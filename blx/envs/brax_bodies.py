@@ -426,20 +426,20 @@ def humanoid() -> ComponentSpec:
   Episodes end when the torso leaves z in [0.65, 2.1]. The default pose has the knees at -25 deg and
   every other joint at its range midpoint. Observation: torso z, quaternion, 17 joint angles, torso
   velocity and angular velocity (world), 17 joint velocities (45); xy velocity at (22, 23) as in the
-  paper. Brax's further 254 entries (per-body inertia, velocities, actuator forces, contacts) are not
-  reproduced. Brax's 2- and 3-axis joints are chains of hinges here, with Brax's ranges read in
+  paper. Brax's further 165 entries that are functions of the state (per-body inertia and
+  velocities) are not reproduced. Brax's 2- and 3-axis joints are chains of hinges here, with Brax's ranges read in
   MuJoCo's sense: that reading reproduces Brax's default pose exactly (torso z 1.2439, centre of
   mass (0.063, 0, 0.8836)). Brax's reset adds one control step of random actions U[0, 0.5); blx's
   reset is the deterministic default pose unless ``global_options.reset_actions`` is 0.5, which
   takes that step (the torso then drops from 1.2449 to 1.2438 m, Brax's from 1.2439 to 1.2430). It
   is off by default, so that the rows trained so far stay reproducible from their configs.
 
-  Of the entries of Brax's observation that are not functions of the state, two are offered as
-  observers (options, off by default): ``"cfrc"``, the shins' contact Δv and Δω over the last step
-  (unclipped, as Brax's; only the shins touch the floor, so Brax's other bodies' entries are 0),
-  and ``"actuator"``, what each motor applied over the last step. Add them with the edit
-  ``{"components.agent1.observers": ["root_z_joints", "cfrc", "actuator"]}`` (obs 74, xy velocity
-  still at 22-23).
+  Of the entries of Brax's observation that are not functions of the state, two are observers:
+  ``"cfrc"``, the shins' contact Δv and Δω over the last step (unclipped, as Brax's; only the
+  shins touch the floor, so Brax's other bodies' entries are 0), and ``"actuator"``, what each
+  motor applied over the last step. The component observes the 45 alone by default, as Braxlines'
+  composer humanoid; the registered env ``humanoid``, the paper's stock env, adds both
+  (``blx.envs.descs.HUMANOID_OBSERVERS``: obs 74, xy velocity still at 22-23).
   """
   deg = math.radians
   limits = dict(limited="true", damping=20.0, armature=0, solreflimit=ANT_LIMIT)

@@ -4,8 +4,9 @@
 (``blx.envs.brax_bodies``), with Brax's control steps: ant 50 ms (5 ms x 10 substeps), humanoid 15 ms
 (3 ms x 5), half-cheetah 50 ms (3.125 ms x 16, Brax's own substep), and Brax's rewards (the ant's
 small contact cost, -0.5e-3 sum clip(contact dv)^2, is left out). ``gym_ant``, ``gym_humanoid`` and
-``gym_halfcheetah`` are the same tasks on the light MuJoCo/Gymnasium bodies. The point mass steps at
-50 ms x 2 (100 ms). All use the MJX-friendly solver defaults of ``blx.envs.composer.GLOBAL_OPTIONS``
+``gym_halfcheetah`` are the same tasks on the light MuJoCo/Gymnasium bodies. The stock humanoid
+observes what Brax's did beyond the component's default: its shins' contacts and its motors'
+applied actions (``HUMANOID_OBSERVERS``). The point mass steps at 50 ms x 2 (100 ms). All use the MJX-friendly solver defaults of ``blx.envs.composer.GLOBAL_OPTIONS``
 (one Newton iteration) except the half-cheetah, ``ant_push`` and ``ant_chase``, which need four for
 a converged solve (see ``CHEETAH_OPTIONS``, ``ant_push`` and ``ant_chase``).
 """
@@ -18,6 +19,14 @@ from blx.envs.brax_bodies import ANT_OPTIONS, CHEETAH_OPTIONS, HUMANOID_OPTIONS
 from blx.envs.registry import register_env
 
 POINT_OPTIONS = dict(timestep=0.05, substeps=2)
+# The paper's humanoid is Brax v0.0.6's stock env, whose observation holds the shins' contacts and
+# the motors' applied actions besides the state (299 numbers): blx's 74 are the state's 45 and
+# those two parts (Brax's further 165, functions of the state, are not reproduced). Braxlines'
+# composer humanoid, the component, observes the 45 alone, and so does blx's. The env observed the
+# 45 alone before 2026-12-06; a run configured then names no observers in its desc and is
+# rebuilt as it trained, and ``{"components.agent1.observers": ["root_z_joints"]}`` gives that
+# observation to a new run.
+HUMANOID_OBSERVERS = ("root_z_joints", "cfrc", "actuator")
 
 
 def _run_goal(target=(4.0, 0.0)):
@@ -25,12 +34,15 @@ def _run_goal(target=(4.0, 0.0)):
   return dict(reward_type="root_goal", sdcomp="vel", indices=(0, 1), target_goal=target, offset=5.0)
 
 
-def _plain(component: str, *, forward: float, healthy: float, control: float, options=None):
+def _plain(component: str, *, forward: float, healthy: float, control: float, options=None,
+           observers=None):
   rewards = dict(forward=dict(reward_type="forward", scale=forward),
                  control=dict(reward_type="control", scale=-control))
   if healthy:
     rewards["healthy"] = dict(reward_type="constant", value=healthy)
   desc = dict(components=dict(agent1=dict(component=component, reward_fns=rewards)))
+  if observers:
+    desc["components"]["agent1"]["observers"] = list(observers)
   if options:
     desc["global_options"] = dict(options)
   return desc
@@ -351,7 +363,7 @@ register_env("point_goal", point_goal, episode_length=50)
 register_env("ant", lambda: _plain("ant", forward=1.0, healthy=1.0, control=0.5,
                                    options=ANT_OPTIONS))
 register_env("humanoid", lambda: _plain("humanoid", forward=1.25, healthy=5.0, control=0.01,
-                                        options=HUMANOID_OPTIONS))
+                                        options=HUMANOID_OPTIONS, observers=HUMANOID_OBSERVERS))
 register_env("halfcheetah", lambda: _plain("halfcheetah", forward=1.0, healthy=0.0, control=0.1,
                                            options=CHEETAH_OPTIONS))
 register_env("gym_ant", lambda: _plain("gym_ant", forward=1.0, healthy=1.0, control=0.5))

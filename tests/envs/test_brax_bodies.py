@@ -433,12 +433,17 @@ def test_humanoid_matches_brax_pose_and_falls_like_it():
   assert v[:, 0].mean() > 0.1
 
 
-def test_the_humanoid_can_observe_its_shins_contacts_and_its_motors_as_brax_did():
-  # Brax's humanoid observation holds two things its state does not give: each body's contact
-  # impulses (only the shins touch the floor) and the motors' torques. Both are observers here.
-  env = envs.create("humanoid", edits={"components.agent1.observers":
-                                       ["root_z_joints", "cfrc", "actuator"]})
+def test_the_humanoid_observes_its_shins_contacts_and_its_motors_as_brax_did():
+  # Brax's stock humanoid observation holds two things its state does not give: each body's
+  # contact impulses (only the shins touch the floor) and the motors' torques. The registered env
+  # observes both; Braxlines' composer component, and the edit that restores blx's older
+  # observation, the state's 45 alone.
+  env = envs.create("humanoid")
   assert env.observation_size == 45 + 12 + 17 and env.obs_indices("vel_xy") == (22, 23)
+  older = envs.create("humanoid", edits={"components.agent1.observers": ["root_z_joints"]})
+  component = envs.create(desc=dict(components=dict(agent1=dict(component="humanoid")),
+                                    global_options=envs.get_desc("humanoid")["global_options"]))
+  assert older.observation_size == component.observation_size == 45
   step = jax.jit(env.step)
   state = env.reset(jax.random.PRNGKey(0))
   action = jnp.zeros(17).at[jnp.array([11, 14])].set(jnp.array([0.3, -0.3]))  # the shoulders
@@ -452,3 +457,7 @@ def test_the_humanoid_can_observe_its_shins_contacts_and_its_motors_as_brax_did(
   np.testing.assert_allclose(dv[0, 2], dv[1, 2], rtol=0.05)       # the pose is symmetric
   assert np.abs(dw).max() > 0.05                                  # off-centre: a turning push
   np.testing.assert_allclose(obs[57:], np.asarray(action), atol=1e-6)
+  state = older.reset(jax.random.PRNGKey(0))
+  for _ in range(3):
+    state = jax.jit(older.step)(state, action)
+  np.testing.assert_allclose(np.asarray(state.obs), obs[:45], atol=1e-5)  # the same state

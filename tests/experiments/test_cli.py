@@ -926,3 +926,22 @@ def test_a_sweep_point_run_for_another_agent_is_not_reused(tmp_path):
   sweep._check_same_point("p", str(tmp_path), spec, env.desc)  # the same point: reused
   with pytest.raises(runs.RunError, match="agent: 'agent0' -> 'agent1'"):
     sweep._check_same_point("p", str(tmp_path), dataclasses.replace(spec, agent="agent1"), env.desc)
+
+
+def test_a_humanoid_run_configured_before_its_env_observed_brax_parts_is_rebuilt_as_it_trained(
+    tmp_path):
+  # Until 2026-12-06 the registered humanoid observed the state's 45 numbers; its desc named no
+  # observers. Such a run must rebuild the env it trained with (its checkpoint's input size), and
+  # a sweep must not take it for a point of the humanoid as blx builds it now.
+  from types import SimpleNamespace
+  from blx import envs
+  from blx.experiments import runs, sweep
+  spec = runs.RunSpec(env="humanoid", objective="diayn", objective_options={}, ppo={})
+  now = runs.build(spec)[0]
+  older = envs.get_desc("humanoid")
+  del older["components"]["agent1"]["observers"]
+  runs.write_config(str(tmp_path), spec, SimpleNamespace(desc=older))
+  rebuilt = runs.build(runs.read_spec(str(tmp_path)))[0]
+  assert (rebuilt.observation_size, now.observation_size) == (45, 45 + 12 + 17)
+  with pytest.raises(runs.RunError, match="the env's desc differs"):
+    sweep._check_same_point("p", str(tmp_path), spec, now.desc)

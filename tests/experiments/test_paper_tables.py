@@ -448,7 +448,8 @@ def test_paired_at_pairs_two_runs_evaluations_during_training_at_the_same_env_st
   text = paper_tables.paired_report(str(arm), str(row), at=10e6)
   assert text.splitlines()[-1] == (
       f"{arm}: settings not the original's: env components.agent1.observers ['root_z_joints', "
-      "'cfrc'] (the original's: ['root_z_joints']). An option's result, not the paper's row.")
+      "'cfrc'] (the original's: ['root_z_joints', 'cfrc', 'actuator']). An option's result, not "
+      "the paper's row.")
   # 15 M is not an evaluation every seed of the arm reached; 12 M is no evaluation of either
   with pytest.raises(ValueError, match=r"no evaluation of eval/mi that every seed reached at "
                                        r"15.00 M .*it has 5.00 M, 10.00 M$"):
@@ -627,15 +628,34 @@ def test_a_row_trained_with_an_env_edit_or_an_objective_option_is_named_as_an_op
            "objective_options": {"made_up": 1}}
   assert paper_tables.desc_off_row(novel) == {"env components.agent1.pos": ([0, 0, 1], "unset"),
                                               "objective made_up": (1, "unset")}
-  # observers the desc leaves to its component: the original's are the component's defaults, and
-  # an edit that restates them is no option
-  humanoid = {"env": "humanoid", "objective": "diayn"}
-  for observers, named in ((["root_z_joints", "cfrc"], True), (["root_z_joints"], False)):
-    config = {**humanoid, "env_params": {"edits": {"components.agent1.observers": observers}}}
+  # observers the desc leaves to its component (the ant's): the original's are the component's
+  # defaults; the humanoid's desc names its own; an edit that restates them is no option
+  ant, humanoid = ({"env": env, "objective": "diayn"} for env in ("ant", "humanoid"))
+  brax = ["root_z_joints", "cfrc", "actuator"]
+  for env, observers, original in ((ant, ["root_z_joints"], ["root_z_joints", "cfrc"]),
+                                   (ant, ["root_z_joints", "cfrc"], None),
+                                   (humanoid, ["root_z_joints"], brax), (humanoid, brax, None)):
+    config = {**env, "env_params": {"edits": {"components.agent1.observers": observers}}}
     assert paper_tables.desc_off_row(config) == ({"env components.agent1.observers": (
-        observers, ["root_z_joints"])} if named else {})
+        observers, original)} if original else {})
   lost = {**humanoid, "env_params": {"edits": {"components.agent9.observers": ["qp"]}}}
   assert paper_tables.desc_off_row(lost) == {"env components.agent9.observers": (["qp"], "unset")}
+  # a humanoid row configured before its env observed Brax's parts: its desc names no observers,
+  # so it was rebuilt, and trained, with the component's 45; named as blx's older env, not as an
+  # option. With an edit that names observers the edit speaks for them.
+  from blx import envs
+  older_desc = envs.get_desc("humanoid")
+  del older_desc["components"]["agent1"]["observers"]
+  older = {**humanoid, "desc": older_desc}
+  assert paper_tables.desc_off_row(older) == {
+      "older env components.agent1.observers": (["root_z_joints"], brax)}
+  assert paper_tables.options_line("row", paper_tables.desc_off_row(older)) == [
+      "row: settings not the original's: older env components.agent1.observers ['root_z_joints'] "
+      "(the original's: ['root_z_joints', 'cfrc', 'actuator']). Trained on blx's older env, not "
+      "the paper's row as blx builds it now."]
+  assert paper_tables.desc_off_row({**humanoid, "desc": envs.get_desc("humanoid")}) == {}
+  edited = {**older, "env_params": {"edits": {"components.agent1.observers": brax}}}
+  assert paper_tables.desc_off_row(edited) == {}
   text = paper_tables.progress(str(tmp_path))
   assert (f"{runs_['iterations'][0]}: settings not the original's: env global_options.iterations "
           "4 (the original's: 1). An option's result, not the paper's row.") in text
@@ -647,6 +667,14 @@ def test_a_row_trained_with_an_env_edit_or_an_objective_option_is_named_as_an_op
       "ant diayn, option env global_options.iterations 4, under training; blx's window",
       "ant diayn, option objective spectral_norm False, under training; blx's window",
       "ant diayn, under training; blx's window"]
+  # the older humanoid row's panels say so, not as an option
+  run = _run_dir(tmp_path / "older" / "diayn", "diayn", "humanoid",
+                 [(1e6, 10.0, {key: [0.4, 0.5, 0.6]})])
+  (run / "config.json").write_text(json.dumps({**json.loads((run / "config.json").read_text()),
+                                               "desc": older_desc}))
+  assert paper_tables.draw_progress(str(tmp_path / "older.png"), str(tmp_path / "older"))[0] == (
+      "humanoid diayn, older env components.agent1.observers ['root_z_joints'], under training; "
+      "blx's window")
 
 
 def test_runs_drawn_together_share_a_window_and_a_range_per_metric(tmp_path, monkeypatch):
