@@ -21,9 +21,10 @@ setting it trained with, else its ``config.json``: ``trained_off_row``), but for
 episodes act (``eval_actions``), which the paper's metrics do not depend on; and its env edits and
 objective options that are not the row's (``desc_off_row``: "env global_options.iterations 4 (the
 original's: 1)"), and the observers a run's config held where its env's have changed since ("older
-env components.agent1.observers ...": the humanoid's rows before 2026-12-06). ``--compare`` and ``--paired`` also name a row trained for other env steps per
-seed than the paper's (``--steps``; ``length_line``): a length is not a setting of how it learns,
-but a row at twice the paper's steps is not the paper's row either.
+env components.agent1.observers ...": the humanoid's rows before 2026-12-06). ``--compare`` and
+``--paired`` also name a row trained for other env steps per seed than the paper's (``--steps``;
+``length_line``): a length is not a setting of how it learns, but a row at twice the paper's steps
+is not the paper's row either.
 Below its verdicts ``--compare`` splits each MI-max row's MI gap into its H(s) and H(s|z) parts
 (``mi_parts``). ``--compare DIR ... --plot PNG`` also draws the rows' final evaluations beside the
 paper's values (``draw_compare``), ``--progress DIR ... --plot PNG`` their curves

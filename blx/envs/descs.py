@@ -1,14 +1,15 @@
 """The registered environments, written as descs (Braxlines' single-agent registry on MJX).
 
 ``ant``, ``humanoid`` and ``halfcheetah`` are the paper's stock Brax v1 envs on the Brax bodies
-(``blx.envs.brax_bodies``), with Brax's control steps: ant 50 ms (5 ms x 10 substeps), humanoid 15 ms
-(3 ms x 5), half-cheetah 50 ms (3.125 ms x 16, Brax's own substep), and Brax's rewards (the ant's
-small contact cost, -0.5e-3 sum clip(contact dv)^2, is left out). ``gym_ant``, ``gym_humanoid`` and
-``gym_halfcheetah`` are the same tasks on the light MuJoCo/Gymnasium bodies. The stock humanoid
-observes what Brax's did beyond the component's default: its shins' contacts and its motors'
-applied actions (``HUMANOID_OBSERVERS``). The point mass steps at 50 ms x 2 (100 ms). All use the MJX-friendly solver defaults of ``blx.envs.composer.GLOBAL_OPTIONS``
-(one Newton iteration) except the half-cheetah, ``ant_push`` and ``ant_chase``, which need four for
-a converged solve (see ``CHEETAH_OPTIONS``, ``ant_push`` and ``ant_chase``).
+(``blx.envs.brax_bodies``), with Brax's control steps: ant 50 ms (5 ms x 10 substeps), humanoid
+15 ms (3 ms x 5), half-cheetah 50 ms (3.125 ms x 16, Brax's own substep), and Brax's rewards (the
+ant's small contact cost, -0.5e-3 sum clip(contact dv)^2, is left out). ``gym_ant``,
+``gym_humanoid`` and ``gym_halfcheetah`` are the same tasks on the light MuJoCo/Gymnasium bodies.
+The stock humanoid observes what Brax's did beyond the component's default: its shins' contacts and
+its motors' applied actions (``HUMANOID_OBSERVERS``). The point mass steps at 50 ms x 2 (100 ms).
+All use the MJX-friendly solver defaults of ``blx.envs.composer.GLOBAL_OPTIONS`` (one Newton
+iteration) except the half-cheetah, ``ant_push`` and ``ant_chase``, which need four for a converged
+solve (see ``CHEETAH_OPTIONS``, ``ant_push`` and ``ant_chase``).
 """
 
 from __future__ import annotations
