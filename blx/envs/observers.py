@@ -12,13 +12,13 @@ Component observers (``observers`` in a component desc):
 * ``"actuator"``: what each of the component's motors applied over the last step, in action order
   (MJCF ``actuator_force``; blx's motors have gain 1, so this is the action after the torque cut).
   Brax v1's humanoid observes its motors' torques, action times strength: the same up to a scale
-  per motor, which PPO's observation normaliser removes. blx's humanoid observes them only with
-  this observer added (an option, off by default: the rows trained so far observe 45 entries).
+  per motor, which PPO's observation normaliser removes. The registered ``humanoid`` env observes
+  them (``blx.envs.descs.HUMANOID_OBSERVERS``); the ``humanoid`` component, alone, does not.
 * ``"cfrc"``: the contact velocity change of each of the component's ``contact_bodies`` over the last
   step, Δv (3 per body) then Δω (3 per body), world frame, clipped to +-``contact_clip`` (Brax v1's
   ``info.contact``, which its ant and humanoid observe; computed from MJX's contact forces, see
-  ``blx.envs.brax_bodies``). The ants observe it by default; the humanoid (its shins) only when
-  it is added.
+  ``blx.envs.brax_bodies``). The ants observe it by default, and the registered ``humanoid`` env
+  its shins'; the ``humanoid`` component, alone, does not.
 * ``dict(observer_type="root", sdcomp="pos"|"rot"|"vel"|"ang", indices=None)``: one root quantity,
   optionally indexed.
 
