@@ -426,14 +426,14 @@ def humanoid() -> ComponentSpec:
   Episodes end when the torso leaves z in [0.65, 2.1]. The default pose has the knees at -25 deg and
   every other joint at its range midpoint. Observation: torso z, quaternion, 17 joint angles, torso
   velocity and angular velocity (world), 17 joint velocities (45); xy velocity at (22, 23) as in the
-  paper. Brax's further 165 entries that are functions of the state (per-body inertia and
-  velocities) are not reproduced. Brax's 2- and 3-axis joints are chains of hinges here, with Brax's
-  ranges read in MuJoCo's sense: that reading reproduces Brax's default pose exactly (torso z
-  1.2439, centre of mass (0.063, 0, 0.8836)). Brax's reset adds one control step of random actions
-  U[0, 0.5); blx's reset is the deterministic default pose unless ``global_options.reset_actions``
-  is 0.5, which takes that step (the torso then drops from 1.2449 to 1.2438 m, Brax's from 1.2439 to
-  1.2430). It is off by default, so that the rows trained so far stay reproducible from their
-  configs.
+  paper. Brax's further 165 entries, functions of the state (per-body inertia and velocities about
+  the centre of mass), are the observer ``"com"`` (an option). Brax's 2- and 3-axis joints are
+  chains of hinges here, with Brax's ranges read in MuJoCo's sense: that reading reproduces Brax's
+  default pose exactly (torso z 1.2439, centre of mass (0.063, 0, 0.8836)). Brax's reset adds one
+  control step of random actions U[0, 0.5); blx's reset is the deterministic default pose unless
+  ``global_options.reset_actions`` is 0.5, which takes that step (the torso then drops from 1.2449
+  to 1.2438 m, Brax's from 1.2439 to 1.2430). It is off by default, so that the rows trained so far
+  stay reproducible from their configs.
 
   Of the entries of Brax's observation that are not functions of the state, two are observers:
   ``"cfrc"``, the shins' contact Δv and Δω over the last step (unclipped, as Brax's; only the

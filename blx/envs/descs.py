@@ -21,11 +21,11 @@ from blx.envs.registry import register_env
 
 POINT_OPTIONS = dict(timestep=0.05, substeps=2)
 # The paper's humanoid is Brax v0.0.6's stock env, whose observation holds the shins' contacts and
-# the motors' applied actions besides the state (299 numbers): blx's 74 are the state's 45 and
-# those two parts (Brax's further 165, functions of the state, are not reproduced). Braxlines'
-# composer humanoid, the component, observes the 45 alone, and so does blx's. The env observed the
-# 45 alone before 2026-12-06; a run configured then names no observers in its desc and is
-# rebuilt as it trained, and ``{"components.agent1.observers": ["root_z_joints"]}`` gives that
+# the motors' applied actions besides the state (299 numbers): blx's 74 are the state's 45 and those
+# two parts (Brax's further 165, functions of the state, are the observer "com", an option).
+# Braxlines' composer humanoid, the component, observes the 45 alone, and so does blx's. The env
+# observed the 45 alone before 2026-12-06; a run configured then names no observers in its desc and
+# is rebuilt as it trained, and ``{"components.agent1.observers": ["root_z_joints"]}`` gives that
 # observation to a new run.
 HUMANOID_OBSERVERS = ("root_z_joints", "cfrc", "actuator")
 

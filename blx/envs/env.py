@@ -16,8 +16,8 @@ from mujoco.mjx._src import support as mjx_support  # contact_force_dim: forces 
 
 from blx.envs.agents import AgentGroups, resolve_agent_groups
 from blx.envs.composer import compose
-from blx.envs.observers import (Handle, ObsPiece, component_observers, contact_observer,
-                                edge_observers, root_quantity)
+from blx.envs.observers import (Handle, ObsPiece, com_observer, component_observers,
+                                contact_observer, edge_observers, root_quantity)
 from blx.envs.rewards import RewardTerm, build_reward_term
 
 __all__ = ["Env", "State", "TorqueCut", "REST_CLEARANCE"]
@@ -108,6 +108,8 @@ class Env:
         where = f"components.{n}.observers[{i}]"
         if obs == "cfrc":
           pieces += self._contact_pieces(n, spec, where)
+        elif obs == "com":
+          pieces.append(self._com_piece(n))
         else:
           pieces += component_observers(self._handles[n], obs, where)
       for term, term_desc in comps[n].get("reward_fns", {}).items():
@@ -208,6 +210,12 @@ class Env:
       rows.append(len(self._contact_bodies))
       self._contact_bodies.append(b)
     return contact_observer(comp, np.asarray(rows, np.int32), spec.contact_clip)
+
+  def _com_piece(self, comp: str) -> ObsPiece:
+    m = self.mj_model
+    bodies = [b for b in range(m.nbody)
+              if (mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_BODY, b) or "").startswith(f"{comp}/")]
+    return com_observer(comp, m, self.mjx_model, np.asarray(bodies, np.int32))
 
   # ------------------------------------------------------------------------------------------------
   def _resolve(self, comp: str, spec, rest: mujoco.MjData) -> Handle:

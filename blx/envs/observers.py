@@ -19,6 +19,15 @@ Component observers (``observers`` in a component desc):
   ``info.contact``, which its ant and humanoid observe; computed from MJX's contact forces, see
   ``blx.envs.brax_bodies``). The ants observe it by default, and the registered ``humanoid`` env
   its shins'; the ``humanoid`` component, alone, does not.
+* ``"com"``: the rest of Brax v0.0.6's humanoid observation, functions of the state about the
+  component's centre of mass. For each of the component's bodies b, with m_b its mass, M the
+  component's, d_b the offset of b's centre of mass from the component's and v_b its velocity
+  (world frame): the inertia about that centre, I_b + m_b (|d_b|² I - d_b d_bᵀ) (9 per body, I_b
+  the body's principal inertia unrotated, as Brax's, whose humanoid's are all 1 I_3), then
+  v_b m_b / M (3 per body), then d_b × v_b / (|d_b|² + 1e-7) (3 per body): 15 per body, 165 for
+  the humanoid's 11. Computed from the state's positions and velocities (not from ``mjx.Data``'s
+  kinematics, which ``mjx.step`` leaves one substep behind). An option: no registered env observes
+  it.
 * ``dict(observer_type="root", sdcomp="pos"|"rot"|"vel"|"ang", indices=None)``: one root quantity,
   optionally indexed.
 
@@ -39,10 +48,11 @@ import jax.numpy as jnp
 import numpy as np
 
 __all__ = ["ObsPiece", "Handle", "root_quantity", "component_observers", "edge_observers",
-           "contact_observer",
+           "contact_observer", "com_observer",
            "COMPONENT_OBSERVERS", "EDGE_OBSERVERS", "SDCOMPS"]
 
-COMPONENT_OBSERVERS = ("root_joints", "root_z_joints", "qp", "joints", "cfrc", "actuator", "root")
+COMPONENT_OBSERVERS = ("root_joints", "root_z_joints", "qp", "joints", "cfrc", "actuator", "com",
+                       "root")
 EDGE_OBSERVERS = ("root_vec",)
 SDCOMPS = {"pos": 3, "rot": 4, "vel": 3, "ang": 3}
 
@@ -142,6 +152,35 @@ def contact_observer(comp: str, rows: np.ndarray, clip: float | None) -> list[Ob
                    reads_contact=True),
           ObsPiece(f"{comp}/contact_ang", 3 * len(rows), lambda c: bound(c[rows, 3:]),
                    reads_contact=True)]
+
+
+def com_observer(comp: str, mj_model: Any, mjx_model: Any, bodies: np.ndarray) -> ObsPiece:
+  """The ``"com"`` observer of the component ``comp`` whose bodies are ``bodies`` (ids in
+  ``mj_model``): per body, its inertia about the component's centre of mass [9], its momentum share
+  v m / M [3], and d × v / (|d|² + 1e-7) [3], blocked as Brax's humanoid had them (every body's
+  inertia, then every body's momentum share, then every body's last part)."""
+  from mujoco import mjx  # here, not at the top: the observers' other readers need no MJX
+  bodies = np.asarray(bodies, np.int32)
+  mass = np.asarray(mj_model.body_mass, np.float32)[bodies]
+  total = float(mass.sum())
+  if total <= 0:
+    raise ValueError(f"the 'com' observer of {comp!r}: its bodies have no mass")
+  inertia = np.stack([np.diag(i) for i in np.asarray(mj_model.body_inertia, np.float32)[bodies]])
+  roots = np.asarray(mj_model.body_rootid, np.int32)[bodies]
+
+  def fn(data):
+    data = mjx.com_vel(mjx_model, mjx.com_pos(mjx_model, mjx.kinematics(mjx_model, data)))
+    pos = data.xipos[bodies]
+    ang, lin = data.cvel[bodies, :3], data.cvel[bodies, 3:]
+    vel = lin + jnp.cross(ang, pos - data.subtree_com[roots])   # at each body's centre of mass
+    disp = pos - (mass[:, None] * pos).sum(0) / total
+    square = (disp * disp).sum(-1)
+    about = inertia + mass[:, None, None] * (square[:, None, None] * jnp.eye(3)
+                                             - disp[:, :, None] * disp[:, None, :])
+    return jnp.concatenate([about.reshape(-1), (vel * mass[:, None] / total).reshape(-1),
+                            (jnp.cross(disp, vel) / (square + 1e-7)[:, None]).reshape(-1)])
+
+  return ObsPiece(f"{comp}/com", 15 * len(bodies), fn)
 
 
 def _indices(where: str, indices: Any, size: int) -> tuple[int, ...]:

@@ -433,6 +433,48 @@ def test_humanoid_matches_brax_pose_and_falls_like_it():
   assert v[:, 0].mean() > 0.1
 
 
+def test_the_com_observer_gives_the_rest_of_brax_humanoid_observation_as_mujoco_computes_it():
+  # Brax v0.0.6's humanoid observed, besides the state, contacts and motors, 165 functions of the
+  # state about the centre of mass: per body its inertia about that point (9), its momentum share
+  # v m / M (3) and d x v / |d|^2 (3). Checked against MuJoCo's own kinematics (C, float64) at a
+  # random state of the humanoid in motion.
+  from mujoco import mjx
+  from blx.envs.observers import com_observer
+  env = envs.create("humanoid", edits={"components.agent1.observers":
+                                       ["root_z_joints", "cfrc", "actuator", "com"]})
+  assert env.observation_size == 74 + 165 and env.obs_layout["agent1/com"] == slice(74, 239)
+  m = env.mj_model
+  bodies = [b for b in range(m.nbody) if mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_BODY, b)
+            .startswith("agent1/")]
+  assert len(bodies) == 11                      # Brax's humanoid's bodies, the floor left out
+  piece = com_observer("agent1", m, env.mjx_model, np.asarray(bodies))
+  d = mujoco.MjData(m)
+  rng = np.random.default_rng(0)
+  d.qpos[:] = env.init_qpos + rng.normal(0, 0.2, m.nq) * np.r_[np.zeros(3), np.ones(m.nq - 3)]
+  d.qpos[3:7] /= np.linalg.norm(d.qpos[3:7])
+  d.qvel[:] = rng.normal(0, 1.0, m.nv)
+  got = np.asarray(jax.jit(piece.fn)(mjx.put_data(m, d)))
+  mujoco.mj_forward(m, d)
+  mass = m.body_mass[bodies]
+  pos, vel = d.xipos[bodies], np.zeros((len(bodies), 3))
+  for i, b in enumerate(bodies):
+    res = np.zeros(6)
+    mujoco.mj_objectVelocity(m, d, mujoco.mjtObj.mjOBJ_BODY, b, res, 0)  # at b's centre of mass
+    vel[i] = res[3:]
+  disp = pos - mass @ pos / mass.sum()
+  square = (disp ** 2).sum(1)
+  inertia = np.stack([np.diag(m.body_inertia[b]) for b in bodies]) + mass[:, None, None] * (
+      square[:, None, None] * np.eye(3) - disp[:, :, None] * disp[:, None, :])
+  want = np.concatenate([inertia.ravel(), (vel * mass[:, None] / mass.sum()).ravel(),
+                         (np.cross(disp, vel) / (square + 1e-7)[:, None]).ravel()])
+  np.testing.assert_allclose(got, want, atol=2e-4 * np.abs(want).max())
+  # the momentum shares sum to the velocity of the whole body's centre of mass
+  mujoco.mj_subtreeVel(m, d)
+  np.testing.assert_allclose(got[99:132].reshape(11, 3).sum(0), d.subtree_linvel[bodies[0]],
+                             atol=1e-4)
+  assert np.all(m.body_inertia[bodies] == 1.0)   # Brax's unit inertias: no frame to rotate
+
+
 def test_the_humanoid_observes_its_shins_contacts_and_its_motors_as_brax_did():
   # Brax's stock humanoid observation holds two things its state does not give: each body's
   # contact impulses (only the shins touch the floor) and the motors' torques. The registered env
