@@ -246,7 +246,7 @@ def desc_off_row(config: dict) -> dict[str, tuple]:
   ``config.json`` that are not its row's: ``{"env PATH": (the run's, the env's), "objective KEY":
   (the run's, the row's)}``. The env's value is that of its registered desc, or the composer's
   default for a global option the desc leaves out, or the component's default observers where the
-  desc names none (``_default_observers``); the row's option is the one ``specs`` sets, else the
+  desc names none (``_observers_of``); the row's option is the one ``specs`` sets, else the
   preset's default. "unset" stands for a value neither has. An edit or option that restates the
   original's is not named; a run of an objective no row trains names none. Then the observers its
   config's desc held where its env's have changed since (``_older_observers``)."""
@@ -264,7 +264,7 @@ def desc_off_row(config: dict) -> dict[str, tuple]:
       if node == _UNSET and keys[0] == "global_options" and len(keys) == 2:
         node = GLOBAL_OPTIONS.get(keys[1], _UNSET)
       if node == _UNSET and len(keys) == 3 and keys[0] == "components" and keys[2] == "observers":
-        node = _default_observers(desc.get("components", {}).get(keys[1]))
+        node = _observers_of(desc.get("components", {}).get(keys[1]))
       if not same(value, node):
         out[f"env {path}"] = (value, node)
   out.update(_older_observers(config, edits))
@@ -292,24 +292,23 @@ def _older_observers(config: dict, edits: dict) -> dict[str, tuple]:
   stored = config.get("desc")
   if not isinstance(stored, dict) or config.get("env") not in envs.list_envs():
     return {}
-  observers = lambda component: (component["observers"] if isinstance(component, dict)
-                                 and "observers" in component
-                                 else _default_observers(component))
   out = {}
   for name, component in (envs.get_desc(config["env"]).get("components") or {}).items():
     path = f"components.{name}.observers"
-    trained = observers((stored.get("components") or {}).get(name))
-    now = observers(component)
+    trained = _observers_of((stored.get("components") or {}).get(name))
+    now = _observers_of(component)
     if path not in edits and trained != _UNSET and runs.as_json(trained) != runs.as_json(now):
       out[f"{OLDER} {path}"] = (runs.as_json(trained), runs.as_json(now))
   return out
 
 
-def _default_observers(component: dict | None) -> list | str:
-  """The observers a component of an env's desc has where the desc names none: its registered
+def _observers_of(component: dict | None) -> list | str:
+  """The observers of a component of an env's desc: those it names, else its registered
   component's defaults (``blx.envs.components.make_component``); "unset" where the desc has no
   such component."""
   from blx.envs import components
+  if isinstance(component, dict) and "observers" in component:
+    return runs.as_json(list(component["observers"]))
   if not isinstance(component, dict) or "component" not in component:
     return _UNSET
   spec = components.make_component(component["component"], component.get("component_params"))
@@ -587,10 +586,7 @@ def logged(*directories: str) -> list[tuple[str, dict | str, list[dict], str | N
   found: set[str] = set()
   for directory in directories:
     if os.path.isfile(directory):
-      if not directory.endswith("metrics.csv"):
-        raise ValueError(f"{directory} is a file but not a metrics.csv: give run directories, "
-                         "a run's metrics.csv or a committed row's NAME_metrics.csv")
-      found.add(directory)
+      found.add(read_metrics(directory))
     else:
       found.update(glob.glob(os.path.join(directory, "**", "*metrics.csv"), recursive=True))
   paths = sorted(found)

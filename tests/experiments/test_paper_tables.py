@@ -794,7 +794,8 @@ def test_progress_reads_committed_rows_and_draws_each_against_the_paper(tmp_path
       str(rows / "diayn"), str(rows / "gail")]
   assert [name for name, *_ in paper_tables.logged(str(rows / "diayn_metrics.csv"))] == [
       str(rows / "diayn")]
-  with pytest.raises(ValueError, match="diayn_eval.json is a file but not a metrics.csv"):
+  with pytest.raises(ValueError, match="diayn_eval.json: neither a metrics.csv file nor a "
+                                       "directory holding one"):
     paper_tables.logged(str(rows / "diayn_eval.json"))
   (rows / "gail_metrics.csv").unlink()
   png = tmp_path / "progress.png"
