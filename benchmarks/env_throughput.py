@@ -8,8 +8,8 @@ termination) scanned for ``--steps`` steps, and the bare ``mjx.step`` on the sam
 ``substeps`` times per env step. The ratio env/raw is the env's overhead. Prints a Markdown table
 (and with --json, one JSON line per env).
 
-Each ``--edits`` (a JSON object of ``{"dotted.path": value}``, as ``blx.envs.create`` takes) measures
-every env once more with those edits, e.g. the humanoid's observation with and without the
+Each ``--edits`` (a JSON object of ``{"dotted.path": value}``, as ``blx.envs.create`` takes)
+measures every env once more with those edits, e.g. the humanoid's observation with and without the
 observer ``"com"``, in one call: ``--envs humanoid --edits '{}' --edits
 '{"components.agent1.observers": ["root_z_joints", "cfrc", "actuator", "com"]}'``. Without it each
 env is measured as registered.
