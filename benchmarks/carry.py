@@ -7,7 +7,7 @@ has 30 minutes of device time, and a row of #15 outlives both.
     python benchmarks/carry.py send STAGE OUT_DIR [--call-mib 64] [--call-files 8]
     python benchmarks/carry.py unpack OUT_DIR/NAME.tar.part_* --into DEST
     python benchmarks/carry.py fits [PATH ...] [--call-mib 64]
-    python benchmarks/carry.py park PARTS ... [--note TEXT]
+    python benchmarks/carry.py park PARTS ... [--note TEXT] [--replace]
     python benchmarks/carry.py parked
     python benchmarks/carry.py unpark NAME --into DIR
     python benchmarks/carry.py forget NAME
@@ -42,10 +42,13 @@ commit that records the first in ``benchmarks/parked.json`` (with each part's si
 git object, by which ``unpark`` reads it).
 The parts then cost the repository's history their size, and no later call's carry anything.
 ``park`` refuses a pack that is not whole (a missing or cut part), a name already parked, and a
-repository with staged changes (they would go into its commit). ``unpark NAME --into DIR`` writes
-the parts back from the history, checking every one against its recorded SHA-256, ready to carry;
-``parked`` lists what is parked, and ``forget NAME`` drops a finished pack from the ledger (its
-parts stay in the history; commit the ledger with the run's results).
+repository with staged changes (they would go into its commit). A run parked, resumed and stopped
+again is parked anew with ``--replace``: its newer pack takes the name's entry in the ledger, which
+keeps the commits of the packs it replaced (``replaces``, newest first), all still in the history.
+``unpark NAME --into DIR`` writes the parts back from the history, checking every one against its
+recorded SHA-256, ready to carry; ``parked`` lists what is parked, and ``forget NAME`` drops a
+finished pack from the ledger (its parts stay in the history; commit the ledger with the run's
+results).
 
 The working tree itself is most of a call's 64 MiB: the committed results (``benchmarks/paper``,
 ``benchmarks/multiagent``: figures, metrics and finished checkpoints, about 44 MiB by session 87)
@@ -421,9 +424,11 @@ def _write_ledger(root: str, ledger: dict) -> None:
   os.replace(path + ".tmp", path)
 
 
-def park(parts: list[str], *, repo: str = ".", note: str = "") -> str:
+def park(parts: list[str], *, repo: str = ".", note: str = "", replace: bool = False) -> str:
   """Keeps the whole pack ``parts`` in ``repo``'s history (see the module's docstring); returns the
-  commit that holds the parts. Makes two commits; the tree ends as it began, but for the ledger."""
+  commit that holds the parts. Makes two commits; the tree ends as it began, but for the ledger.
+  With ``replace``, a pack of the name parked already gives way to this one (a run parked again
+  after a resume); without, it is refused."""
   ordered = _ordered(parts)
   name = _PART.match(os.path.basename(ordered[0]))["name"]
   with tempfile.TemporaryDirectory() as check:
@@ -433,10 +438,13 @@ def park(parts: list[str], *, repo: str = ".", note: str = "") -> str:
       raise CarryError(f"park: {e}; a pack that is not whole is not parked") from None
   root = _root(repo)
   ledger = read_ledger(root)
-  if name in ledger:
+  if name in ledger and not replace:
     raise CarryError(f"park: a pack named {name!r} is parked already (commit "
-                     f"{ledger[name]['commit'][:10]}); pack under another --name, or forget the "
-                     "parked one once its run is done")
+                     f"{ledger[name]['commit'][:10]}); a newer pack of the same run: park "
+                     "--replace; another run: `carry.py pack --name` another name")
+  if name not in ledger and replace:
+    raise CarryError(f"park: --replace, but no pack named {name!r} is parked; parked: "
+                     f"{', '.join(sorted(ledger)) or 'none'}")
   staged = _git(root, "diff", "--cached", "--name-only")
   if staged:
     raise CarryError(f"park: {root} has staged changes ({staged.splitlines()[0]}, ...); commit or "
@@ -461,8 +469,11 @@ def park(parts: list[str], *, repo: str = ".", note: str = "") -> str:
   for entry in entries:  # the parts' contents by name, which no rewrite of commits changes
     entry["blob"] = _git(root, "rev-parse", f"{commit}:{rel}/{entry['file']}")
   _git(root, "rm", "-r", "-q", "--", rel)
+  older = ledger.get(name)
   ledger[name] = dict(commit=commit, path=rel, parts=entries, note=note,
                       parked=datetime.date.today().isoformat())
+  if older:
+    ledger[name]["replaces"] = [older["commit"], *older.get("replaces", [])]
   _write_ledger(root, ledger)
   _git(root, "add", "--", LEDGER)
   _git(root, "commit", "-q", "-m", f"carry.py park {name}: the parts leave the tree; {LEDGER} "
@@ -588,6 +599,9 @@ def main(argv: list[str] | None = None) -> None:
   k = sub.add_parser("park", help="keep a whole pack in the repository's history")
   k.add_argument("parts", nargs="+")
   k.add_argument("--note", default="", help="what the pack is and how to resume it")
+  k.add_argument("--replace", action="store_true",
+                 help="a pack of this name is parked already: this newer one of the same run "
+                 "takes its place (the ledger keeps the older commits under `replaces`)")
   k.add_argument("--repo", default=".")
   sub.add_parser("parked", help="list the parked packs").add_argument("--repo", default=".")
   n = sub.add_parser("unpark", help="write a parked pack's parts into --into")
@@ -637,7 +651,7 @@ def main(argv: list[str] | None = None) -> None:
       if not fit.fits:
         parser.exit(1)
     elif args.command == "park":
-      commit = park(args.parts, repo=args.repo, note=args.note)
+      commit = park(args.parts, repo=args.repo, note=args.note, replace=args.replace)
       print(f"parked in commit {commit[:10]} (two commits made); `carry.py unpark NAME --into DIR` "
             "brings the parts back")
     elif args.command == "parked":
@@ -646,6 +660,7 @@ def main(argv: list[str] | None = None) -> None:
         size = sum(p["bytes"] for p in entry["parts"])
         print(f"{name}: {_parts(len(entry['parts']))}, {size / MB:.1f} MB, commit "
               f"{entry['commit'][:10]}, parked {entry['parked']}"
+              + (f" (replaces {len(entry['replaces'])} older)" if entry.get("replaces") else "")
               + (f": {entry['note']}" if entry["note"] else ""))
       if not ledger:
         print("nothing is parked")

@@ -370,8 +370,42 @@ def test_park_refuses_a_broken_pack_a_name_parked_twice_and_staged_changes(tmp_p
   assert _git(repo, "rev-parse", "HEAD") == head   # nothing was committed
   _git(repo, "commit", "-q", "-m", "the user's own change")
   carry.park(parts, repo=str(repo))
-  with pytest.raises(carry.CarryError, match="'hc' is parked already"):
+  with pytest.raises(carry.CarryError, match="'hc' is parked already.*park --replace"):
     carry.park(parts, repo=str(repo))
+  with pytest.raises(carry.CarryError, match="--replace, but no pack named 'ant' is parked; "
+                     "parked: hc"):
+    carry.park(carry.pack(_tree(tmp_path / "ant"), str(tmp_path / "ant_out"), "ant",
+                          part_mb=PART_MB), repo=str(repo), replace=True)
+
+
+def test_a_run_parked_again_after_a_resume_replaces_its_older_pack(tmp_path, capsys):
+  repo = _repo(tmp_path / "repo")
+  older = carry.pack(_tree(tmp_path / "a"), str(tmp_path / "a_out"), "hc", part_mb=PART_MB)
+  first = carry.park(older, repo=str(repo), note="at 31 M")
+  newer_tree = _tree(tmp_path / "b")   # the same run further on: its metrics and params moved
+  run = os.path.join(newer_tree, "mimax", "objective=diayn")
+  with open(os.path.join(run, "metrics.csv"), "a") as f:
+    f.write("0,10\n")
+  checkpoint.save(os.path.join(run, "checkpoint"),
+                  _State(env_state=ENV_STATE, params=np.full(500, 0.5, np.float32)),
+                  {"env_state": True, "history": []})
+  newer = carry.pack(newer_tree, str(tmp_path / "b_out"), "hc", part_mb=PART_MB)
+  carry.main(["park", *newer, "--replace", "--note", "at 62 M", "--repo", str(repo)])
+  second = _git(repo, "rev-parse", "HEAD~1")
+  assert f"parked in commit {second[:10]}" in capsys.readouterr().out and second != first
+  entry = carry.read_ledger(str(repo))["hc"]
+  assert (entry["commit"], entry["note"], entry["replaces"]) == (second, "at 62 M", [first])
+  back = carry.unpark("hc", str(tmp_path / "into"), repo=str(repo))
+  carry.unpack(back, str(tmp_path / "dest"))   # the newer pack comes back, not the older
+  np.testing.assert_array_equal(
+      _arrays(str(tmp_path / "dest" / "mimax" / "objective=diayn"))[".params"],
+      np.full(500, 0.5, np.float32))
+  third = carry.park(older, repo=str(repo), replace=True)   # every replaced commit, newest first
+  assert carry.read_ledger(str(repo))["hc"]["replaces"] == [second, first]
+  carry.main(["parked", "--repo", str(repo)])
+  listed = capsys.readouterr().out
+  assert f"commit {third[:10]}, parked " in listed and "(replaces 2 older)" in listed
+  assert third not in (first, second)
 
 
 def test_unpark_refuses_a_part_that_is_not_the_one_parked(tmp_path):
