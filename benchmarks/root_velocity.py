@@ -3,12 +3,16 @@ velocity (``ant_run``, ``pro_ant_run``: r = 5 - ||v_xy - (4, 0)||) scores how fa
 from the target, not whether the agent runs slowly toward it or fast the wrong way; nor which way,
 in its own frame, the body runs (along a leg or between two).
 
-    python benchmarks/root_velocity.py RUN_DIR [--seeds 0,1] [--episodes 4] [--deterministic]
-                                               [--out FILE.json]
+    python benchmarks/root_velocity.py RUN_DIR [--seeds 0,1] [--episodes 4] [--latents 8]
+                                               [--deterministic] [--out FILE.json]
 
 Per seed, ``--episodes`` episodes rolled out as the evaluator does (the env's length, actions
 sampled unless ``--deterministic``, no reset after a fall), read over the scored window (the last
-``metrics.scored_steps`` steps), every step of every episode pooled:
+``metrics.scored_steps`` steps), every step of every episode pooled. A policy that takes a latent
+(an MI-max run's skills) runs ``--episodes`` episodes under each of the evaluator's latents
+(``metrics.latents_for_evaluation``: every skill of a categorical prior, ``--latents`` draws of a
+continuous one), pooled alike: the skills' gait read together (speed, the direction in the body's
+frame, ``upside_down``), while the world velocity averages over skills that run different ways.
 - ``velocity``: the mean of the root's xy velocity (world frame, m/s; the env's ``vel_xy``);
 - ``speed``: the mean of its norm, and ``steadiness``: ``|mean velocity| / speed`` (1 when every
   step moves the same way);
@@ -43,18 +47,27 @@ from blx import metrics  # noqa: E402
 ANGLES = ("body_direction_deg", "heading_deg")
 
 
-def episodes(run, params, key: jax.Array, num: int, deterministic: bool):
-  """``(velocity [num, T, 2], x_axis [num, T, 2], up [num, T], reward [num, T])`` over the scored
-  window of ``num`` episodes of one seed's ``params``: the root's xy velocity, its body x axis in
-  the world's xy plane, the z component of its up axis, and the env reward."""
+def takes_latent(run) -> bool:
+  """Whether the run's policy is conditioned on a latent (its objective's ``conditions_policy``)."""
+  return bool(getattr(run.objective, "conditions_policy", False))
+
+
+def episodes(run, params, key: jax.Array, num: int, deterministic: bool, num_latents: int = 8):
+  """``(velocity [E, T, 2], x_axis [E, T, 2], up [E, T], reward [E, T])`` over the scored window
+  of one seed's ``params``: the root's xy velocity, its body x axis in the world's xy plane, the z
+  component of its up axis, and the env reward; E = ``num`` episodes, or ``num`` under each of the
+  evaluator's latents (``num_latents`` draws of a continuous prior) where the policy takes one."""
   indices = np.asarray(run.env.obs_indices("vel_xy"))
   last = metrics.scored_steps(run.env)
+  conditioned = takes_latent(run)
+  latents = (metrics.latents_for_evaluation(run.objective, jax.random.fold_in(key, 1), num_latents)
+             if conditioned else jnp.zeros((1, 0)))
   out = metrics.rollout(
-      run.env, run.policy, params, jnp.zeros((1, 0)), key, episodes_per_latent=num,
-      conditions_policy=False, deterministic=deterministic,
+      run.env, run.policy, params, latents, key, episodes_per_latent=num,
+      conditions_policy=conditioned, deterministic=deterministic,
       record=lambda s, a, n: (n.obs[..., indices], n.data.xmat[..., 1, :2, 0],
                               n.data.xmat[..., 1, 2, 2], n.reward))
-  return tuple(x[0, :, -last:] for x in out)
+  return tuple(x.reshape((-1,) + x.shape[2:])[:, -last:] for x in out)
 
 
 def read_seed(velocity, x_axis, up, reward) -> dict:
@@ -94,20 +107,28 @@ def summary(seeds: list[dict]) -> dict:
 def main():
   parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
   common.add_analysis_arguments(parser, "a trained run directory of an env whose root moves in the "
-                                "plane (ant_run, pro_ant_run, ...)")
-  parser.add_argument("--episodes", type=int, default=4, help="episodes per seed (default 4)")
+                                "plane (ant_run, pro_ant_run, an Ant MI-max row, ...)")
+  parser.add_argument("--episodes", type=int, default=4,
+                      help="episodes per seed, or per latent of a policy that takes one "
+                      "(default 4)")
+  parser.add_argument("--latents", type=int, default=8,
+                      help="a policy that takes a latent from a continuous prior: how many of the "
+                      "prior's draws it runs under (default 8; a categorical prior runs every "
+                      "skill)")
   parser.add_argument("--key-seed", type=int, default=0, help="PRNG seed of the episodes")
   args = parser.parse_args()
   if args.episodes < 1:
     parser.error(f"--episodes {args.episodes}: give 1 or more")
+  if args.latents < 1:
+    parser.error(f"--latents {args.latents}: give 1 or more")
   run, picked = common.load_picked(parser, args.run, args.seeds)
   if "vel_xy" not in run.env.named_indices:
     parser.error(f"{args.run}: env {run.spec.env!r} has no root xy velocity in its observation "
                  f"(its named sets: {', '.join(sorted(run.env.named_indices))}); "
                  "root_velocity.py reads bodies that move in the plane")
   params, keys = common.picked_seeds(run, picked, args.key_seed)
-  arrays = jax.jit(jax.vmap(lambda p, k: episodes(run, p, k, args.episodes, args.deterministic)))(
-      params, keys)
+  arrays = jax.jit(jax.vmap(lambda p, k: episodes(run, p, k, args.episodes, args.deterministic,
+                                                  args.latents)))(params, keys)
   arrays = [np.asarray(a) for a in arrays]
   # the PPO settings it trained with over its row's (e.g. an entropy_cost), so that a reader of the
   # JSON, or gait_search.py --plot-legs, tells runs of one env apart
@@ -116,6 +137,7 @@ def main():
   result = {"run": args.run, "env": run.spec.env, "env_params": run.spec.env_params or {},
             "ppo": dict(run.spec.ppo or {}), "env_steps": run.env_steps,
             "episodes": args.episodes,
+            "latents": int(arrays[0].shape[1] // args.episodes) if takes_latent(run) else None,
             "deterministic": args.deterministic, "per_seed": {}}
   for i, position in enumerate(picked):
     seed = run.spec.seeds[position]

@@ -11,7 +11,7 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from blx import envs
+from blx import envs, metrics, objectives
 from blx.envs.env import State
 from blx.experiments import runs
 from tests.experiments import load_benchmark
@@ -51,7 +51,7 @@ class _Runner:
 
 
 def test_the_body_frame_direction_is_found_whatever_way_each_episode_faces():
-  run = SimpleNamespace(env=envs.episode(_Runner(), 8),
+  run = SimpleNamespace(env=envs.episode(_Runner(), 8), objective=None,   # a task's run
                         policy=lambda params, obs, z=None, key=None, deterministic=False:
                         jnp.zeros(obs.shape[:-1] + (1,)))
   arrays = jax.jit(lambda k: root_velocity.episodes(run, {}, k, 30, False))(jax.random.PRNGKey(0))
@@ -64,6 +64,51 @@ def test_the_body_frame_direction_is_found_whatever_way_each_episode_faces():
   # 30 headings drawn at random: the world velocities point every way, so their mean is short
   assert read["steadiness"] < 0.5
   assert read["reward"] == pytest.approx(1.5) and read["upside_down"] == 0.0
+
+
+class _Steered(_Runner):
+  """As ``_Runner``, but the body runs along its own x axis at 1 + |action| m/s from the first
+  step on (the action, a policy's, is held in the observation's last entry)."""
+
+  observation_size = 4
+  named_indices = {"vel_xy": (1, 2)}
+
+  def _steered(self, yaw, speed, t):
+    c, s = jnp.cos(yaw), jnp.sin(yaw)
+    xmat = jnp.zeros((2, 3, 3)).at[1].set(jnp.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]]))
+    return dict(data=_Data(xmat=xmat, t=t), reward=jnp.float32(0.0),
+                obs=jnp.concatenate([yaw[None], speed * jnp.stack([c, s]), speed[None]]))
+
+  def reset(self, key):
+    yaw = jax.random.uniform(key, (), minval=-math.pi, maxval=math.pi)
+    return State(**self._steered(yaw, jnp.float32(0.0), jnp.zeros((), jnp.int32)),
+                 done=jnp.zeros(()))
+
+  def step(self, state, action):
+    return state.replace(**self._steered(state.obs[0], 1.0 + jnp.abs(action[0]), state.data.t + 1))
+
+
+def test_a_policy_that_takes_a_latent_runs_under_each_of_the_evaluators_latents():
+  objective = objectives.gcrl(obs_indices=(1, 2))   # a continuous prior over two dimensions
+  seen = []
+
+  def policy(params, obs, z=None, key=None, deterministic=False):
+    seen.append(z is not None)
+    return z[..., :1]   # the first latent dimension is the action, so each skill its own speed
+  run = SimpleNamespace(env=envs.episode(_Steered(), 8), policy=policy, objective=objective)
+  key = jax.random.PRNGKey(3)
+  arrays = jax.jit(lambda k: root_velocity.episodes(run, {}, k, 2, False, 5))(key)
+  velocity, x_axis, up, reward = (np.asarray(a) for a in arrays)
+  assert velocity.shape == (10, 4, 2) and all(seen)   # 5 latents x 2 episodes, each conditioned
+  z = np.asarray(metrics.latents_for_evaluation(objective, jax.random.fold_in(key, 1), 5))
+  speeds = np.linalg.norm(velocity, axis=-1)  # episode by episode: latent 0's two, then 1's, ...
+  np.testing.assert_allclose(speeds, np.repeat(1.0 + np.abs(z[:, 0]), 2)[:, None].repeat(4, 1),
+                             rtol=1e-5)
+  read = root_velocity.read_seed(velocity, x_axis, up, reward)
+  assert read["speed"] == pytest.approx(1.0 + np.abs(z[:, 0]).mean(), rel=1e-5)
+  assert read["body_direction_deg"] == pytest.approx(0.0, abs=1e-3)   # along its own x axis
+  assert root_velocity.takes_latent(run) and not root_velocity.takes_latent(
+      SimpleNamespace(objective=None))
 
 
 def test_a_steady_run_in_the_world_and_its_heading():
@@ -126,5 +171,6 @@ def test_the_json_names_the_runs_settings_and_how_far_it_had_trained(monkeypatch
     result = json.loads(out.read_text())
     assert result["env_steps"] == env_steps
     assert result["ppo"] == {"entropy_cost": 0.1} and result["env_params"] == {"num_legs": 3}
+    assert result["latents"] is None   # its policy takes none
     assert sorted(result["per_seed"]) == ["3", "5"]
     assert result["summary"]["speed"]["mean"] == pytest.approx(2.0, abs=1e-5)
