@@ -111,7 +111,7 @@ def main():
   parser.add_argument("--episodes", type=int, default=4,
                       help="episodes per seed, or per latent of a policy that takes one "
                       "(default 4)")
-  parser.add_argument("--latents", type=int, default=8,
+  parser.add_argument("--latents", type=int, default=None,
                       help="a policy that takes a latent from a continuous prior: how many of the "
                       "prior's draws it runs under (default 8; a categorical prior runs every "
                       "skill)")
@@ -119,16 +119,22 @@ def main():
   args = parser.parse_args()
   if args.episodes < 1:
     parser.error(f"--episodes {args.episodes}: give 1 or more")
-  if args.latents < 1:
+  if args.latents is not None and args.latents < 1:
     parser.error(f"--latents {args.latents}: give 1 or more")
   run, picked = common.load_picked(parser, args.run, args.seeds)
+  if args.latents is not None and not (
+      takes_latent(run) and run.objective.spec.prior.kind not in ("categorical", "deterministic")):
+    parser.error(f"--latents {args.latents}: {args.run}'s policy "
+                 + ("runs every skill of its categorical prior (or its one latent)"
+                    if takes_latent(run) else f"takes no latent (objective {run.spec.objective!r})")
+                 + "; --latents counts the draws of a continuous prior")
   if "vel_xy" not in run.env.named_indices:
     parser.error(f"{args.run}: env {run.spec.env!r} has no root xy velocity in its observation "
                  f"(its named sets: {', '.join(sorted(run.env.named_indices))}); "
                  "root_velocity.py reads bodies that move in the plane")
   params, keys = common.picked_seeds(run, picked, args.key_seed)
   arrays = jax.jit(jax.vmap(lambda p, k: episodes(run, p, k, args.episodes, args.deterministic,
-                                                  args.latents)))(params, keys)
+                                                  args.latents or 8)))(params, keys)
   arrays = [np.asarray(a) for a in arrays]
   # the PPO settings it trained with over its row's (e.g. an entropy_cost), so that a reader of the
   # JSON, or gait_search.py --plot-legs, tells runs of one env apart

@@ -137,16 +137,24 @@ def test_the_summary_averages_angles_as_angles():
 
 
 def test_the_command_refuses_an_env_without_a_planar_root_velocity(monkeypatch, capsys, tmp_path):
-  run = SimpleNamespace(spec=SimpleNamespace(seeds=(0,), env="cheetah_like"),
-                        env=SimpleNamespace(named_indices={"vel_x": (3,)}))
+  run = SimpleNamespace(spec=SimpleNamespace(seeds=(0,), env="cheetah_like", objective="task"),
+                        env=SimpleNamespace(named_indices={"vel_x": (3,)}), objective=None)
   monkeypatch.setattr(root_velocity.common.runs, "load_run", lambda directory: run)
   for argv, message in (([str(tmp_path)], "has no root xy velocity in its observation (its "
                          "named sets: vel_x)"),
-                        ([str(tmp_path), "--episodes", "0"], "--episodes 0: give 1 or more")):
+                        ([str(tmp_path), "--episodes", "0"], "--episodes 0: give 1 or more"),
+                        ([str(tmp_path), "--latents", "0"], "--latents 0: give 1 or more"),
+                        ([str(tmp_path), "--latents", "4"], "policy takes no latent (objective "
+                         "'task'); --latents counts the draws of a continuous prior")):
     monkeypatch.setattr("sys.argv", ["root_velocity.py", *argv])
     with pytest.raises(SystemExit):
       root_velocity.main()
     assert message in capsys.readouterr().err
+  run.objective = objectives.diayn(num_skills=3, obs_indices=(1, 2))   # every skill is run
+  monkeypatch.setattr("sys.argv", ["root_velocity.py", str(tmp_path), "--latents", "4"])
+  with pytest.raises(SystemExit):
+    root_velocity.main()
+  assert "runs every skill of its categorical prior" in capsys.readouterr().err
 
 
 def test_the_json_names_the_runs_settings_and_how_far_it_had_trained(monkeypatch, tmp_path):
