@@ -68,7 +68,7 @@ def test_the_body_frame_direction_is_found_whatever_way_each_episode_faces():
 
 class _Steered(_Runner):
   """As ``_Runner``, but the body runs along its own x axis at 1 + |action| m/s from the first
-  step on (the action, a policy's, is held in the observation's last entry)."""
+  step on; the observation: [yaw, vx, vy, speed]."""
 
   observation_size = 4
   named_indices = {"vel_xy": (1, 2)}
