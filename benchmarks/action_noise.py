@@ -32,7 +32,6 @@ sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import common  # noqa: E402
 
 from blx import metrics  # noqa: E402
-from blx.objectives.specs import MimaxSpec  # noqa: E402
 
 EVERY = 50  # one state in EVERY of the scored window
 
@@ -52,9 +51,7 @@ def noise_at(policy, params, obs: jax.Array, z: jax.Array | None, key: jax.Array
 
 def seed_noise(run, params, key: jax.Array, episodes: int, samples: int) -> dict:
   """``noise_at``'s means over the states of one seed's evaluation episodes (the module's doc)."""
-  mimax = isinstance(run.objective.spec, MimaxSpec)
-  latents = (metrics.latents_for_evaluation(run.objective, key, 8) if mimax
-             else jnp.zeros((1, 0)))
+  latents, mimax = common.policy_latents(run, key)
   last = metrics.scored_steps(run.env)
   obs = metrics.rollout(run.env, run.policy, params, latents, key, episodes_per_latent=episodes,
                         conditions_policy=mimax)  # [L, M, T, O]

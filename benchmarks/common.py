@@ -10,10 +10,11 @@ import time
 from typing import Callable, Sequence
 
 import jax
+import jax.numpy as jnp
 import numpy as np
 from mujoco import mjx
 
-from blx import envs
+from blx import envs, metrics
 from blx.experiments import runs
 from blx.training import PPOConfig
 from blx.training import config as ppo_config
@@ -172,6 +173,16 @@ def picked_seeds(run, picked: Sequence[int], key_seed: int) -> tuple:
   at = np.asarray(picked)
   keys = jax.random.split(jax.random.PRNGKey(key_seed), len(run.spec.seeds))[at]
   return jax.tree.map(lambda x: x[at], run.params), keys
+
+
+def policy_latents(run, key: jax.Array, num_latents: int = 8) -> tuple[jax.Array, bool]:
+  """``(latents [L, Z], conditioned)``: what a loaded run's policy is rolled out under in the
+  analyses. Where it takes a latent (its objective's ``conditions_policy``, an MI-max run's), the
+  evaluator's (``metrics.latents_for_evaluation``: every skill of a categorical prior,
+  ``num_latents`` draws of a continuous one, with ``key``); else one empty latent ``[1, 0]``."""
+  conditioned = bool(run.objective.conditions_policy)
+  return (metrics.latents_for_evaluation(run.objective, key, num_latents) if conditioned
+          else jnp.zeros((1, 0))), conditioned
 
 
 def run_label(spec, seeds: str | None = None, *, directory: str | None = None) -> str:

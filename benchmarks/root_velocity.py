@@ -36,7 +36,6 @@ import os
 import sys
 
 import jax
-import jax.numpy as jnp
 import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
@@ -45,23 +44,18 @@ import common  # noqa: E402
 from blx import metrics  # noqa: E402
 
 ANGLES = ("body_direction_deg", "heading_deg")
+LATENTS = 8  # --latents' default: the draws of a continuous prior a policy runs under
 
 
-def takes_latent(run) -> bool:
-  """Whether the run's policy is conditioned on a latent (its objective's ``conditions_policy``)."""
-  return bool(getattr(run.objective, "conditions_policy", False))
-
-
-def episodes(run, params, key: jax.Array, num: int, deterministic: bool, num_latents: int = 8):
+def episodes(run, params, key: jax.Array, num: int, deterministic: bool,
+             num_latents: int = LATENTS):
   """``(velocity [E, T, 2], x_axis [E, T, 2], up [E, T], reward [E, T])`` over the scored window
   of one seed's ``params``: the root's xy velocity, its body x axis in the world's xy plane, the z
   component of its up axis, and the env reward; E = ``num`` episodes, or ``num`` under each of the
   evaluator's latents (``num_latents`` draws of a continuous prior) where the policy takes one."""
   indices = np.asarray(run.env.obs_indices("vel_xy"))
   last = metrics.scored_steps(run.env)
-  conditioned = takes_latent(run)
-  latents = (metrics.latents_for_evaluation(run.objective, jax.random.fold_in(key, 1), num_latents)
-             if conditioned else jnp.zeros((1, 0)))
+  latents, conditioned = common.policy_latents(run, jax.random.fold_in(key, 1), num_latents)
   out = metrics.rollout(
       run.env, run.policy, params, latents, key, episodes_per_latent=num,
       conditions_policy=conditioned, deterministic=deterministic,
@@ -113,8 +107,8 @@ def main():
                       "(default 4)")
   parser.add_argument("--latents", type=int, default=None,
                       help="a policy that takes a latent from a continuous prior: how many of the "
-                      "prior's draws it runs under (default 8; a categorical prior runs every "
-                      "skill)")
+                      f"prior's draws it runs under (default {LATENTS}; a categorical prior runs "
+                      "every skill)")
   parser.add_argument("--key-seed", type=int, default=0, help="PRNG seed of the episodes")
   args = parser.parse_args()
   if args.episodes < 1:
@@ -122,11 +116,12 @@ def main():
   if args.latents is not None and args.latents < 1:
     parser.error(f"--latents {args.latents}: give 1 or more")
   run, picked = common.load_picked(parser, args.run, args.seeds)
+  takes_latent = run.objective.conditions_policy
   if args.latents is not None and not (
-      takes_latent(run) and run.objective.spec.prior.kind not in ("categorical", "deterministic")):
+      takes_latent and run.objective.spec.prior.kind not in ("categorical", "deterministic")):
     parser.error(f"--latents {args.latents}: {args.run}'s policy "
                  + ("runs every skill of its categorical prior (or its one latent)"
-                    if takes_latent(run) else f"takes no latent (objective {run.spec.objective!r})")
+                    if takes_latent else f"takes no latent (objective {run.spec.objective!r})")
                  + "; --latents counts the draws of a continuous prior")
   if "vel_xy" not in run.env.named_indices:
     parser.error(f"{args.run}: env {run.spec.env!r} has no root xy velocity in its observation "
@@ -134,7 +129,7 @@ def main():
                  "root_velocity.py reads bodies that move in the plane")
   params, keys = common.picked_seeds(run, picked, args.key_seed)
   arrays = jax.jit(jax.vmap(lambda p, k: episodes(run, p, k, args.episodes, args.deterministic,
-                                                  args.latents or 8)))(params, keys)
+                                                  args.latents or LATENTS)))(params, keys)
   arrays = [np.asarray(a) for a in arrays]
   # the PPO settings it trained with over its row's (e.g. an entropy_cost), so that a reader of the
   # JSON, or gait_search.py --plot-legs, tells runs of one env apart
@@ -143,7 +138,7 @@ def main():
   result = {"run": args.run, "env": run.spec.env, "env_params": run.spec.env_params or {},
             "ppo": dict(run.spec.ppo or {}), "env_steps": run.env_steps,
             "episodes": args.episodes,
-            "latents": int(arrays[0].shape[1] // args.episodes) if takes_latent(run) else None,
+            "latents": int(arrays[0].shape[1] // args.episodes) if takes_latent else None,
             "deterministic": args.deterministic, "per_seed": {}}
   for i, position in enumerate(picked):
     seed = run.spec.seeds[position]

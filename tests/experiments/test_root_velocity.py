@@ -51,7 +51,7 @@ class _Runner:
 
 
 def test_the_body_frame_direction_is_found_whatever_way_each_episode_faces():
-  run = SimpleNamespace(env=envs.episode(_Runner(), 8), objective=None,   # a task's run
+  run = SimpleNamespace(env=envs.episode(_Runner(), 8), objective=objectives.task(),
                         policy=lambda params, obs, z=None, key=None, deterministic=False:
                         jnp.zeros(obs.shape[:-1] + (1,)))
   arrays = jax.jit(lambda k: root_velocity.episodes(run, {}, k, 30, False))(jax.random.PRNGKey(0))
@@ -107,8 +107,11 @@ def test_a_policy_that_takes_a_latent_runs_under_each_of_the_evaluators_latents(
   read = root_velocity.read_seed(velocity, x_axis, up, reward)
   assert read["speed"] == pytest.approx(1.0 + np.abs(z[:, 0]).mean(), rel=1e-5)
   assert read["body_direction_deg"] == pytest.approx(0.0, abs=1e-3)   # along its own x axis
-  assert root_velocity.takes_latent(run) and not root_velocity.takes_latent(
-      SimpleNamespace(objective=None))
+  latents, conditioned = root_velocity.common.policy_latents(run, jax.random.fold_in(key, 1), 5)
+  np.testing.assert_array_equal(np.asarray(latents), z)
+  latents, conditioned_task = root_velocity.common.policy_latents(
+      SimpleNamespace(objective=objectives.task()), key)   # a task's policy takes none
+  assert conditioned and not conditioned_task and latents.shape == (1, 0)
 
 
 def test_a_steady_run_in_the_world_and_its_heading():
@@ -138,7 +141,8 @@ def test_the_summary_averages_angles_as_angles():
 
 def test_the_command_refuses_an_env_without_a_planar_root_velocity(monkeypatch, capsys, tmp_path):
   run = SimpleNamespace(spec=SimpleNamespace(seeds=(0,), env="cheetah_like", objective="task"),
-                        env=SimpleNamespace(named_indices={"vel_x": (3,)}), objective=None)
+                        env=SimpleNamespace(named_indices={"vel_x": (3,)}),
+                        objective=objectives.task())
   monkeypatch.setattr(root_velocity.common.runs, "load_run", lambda directory: run)
   for argv, message in (([str(tmp_path)], "has no root xy velocity in its observation (its "
                          "named sets: vel_x)"),
@@ -164,7 +168,8 @@ def test_the_json_names_the_runs_settings_and_how_far_it_had_trained(monkeypatch
     policy = lambda params, obs, z=None, key=None, deterministic=False: (   # noqa: E731
         jnp.zeros(obs.shape[:-1] + (1,)))
     return runs.Run(directory=str(tmp_path), spec=spec, env=envs.episode(_Runner(), 8),
-                    objective=None, config=None, params={"w": jnp.zeros((2,))}, policy=policy,
+                    objective=objectives.task(), config=None, params={"w": jnp.zeros((2,))},
+                    policy=policy,
                     meta=meta)
   out = tmp_path / "velocity.json"
   history = [{"env_steps": 1e6}, {"env_steps": 2e6}]
