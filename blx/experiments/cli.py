@@ -240,6 +240,10 @@ def cmd_eval(args) -> int:
   if args.metrics_only and key_seeds is None:
     raise UsageError("--metrics-only applies with --key-seeds: eval.json always holds every "
                      "metric")
+  if args.eval_protocol is not None and key_seeds is None:
+    raise UsageError("--eval-protocol applies with --key-seeds: eval.json is always the final "
+                     "protocol's")
+  protocol = _eval_protocol(args.eval_protocol)
   actions = _eval_actions(args.eval_actions)
   run = runs.load_run(args.dir)
   own = run.config.eval_actions
@@ -263,11 +267,12 @@ def cmd_eval(args) -> int:
     print(f"[blx] evaluated with eval_actions={actions!r}; eval.json (the run's own, "
           f"{own!r}) is left as it was{also}", file=sys.stderr)
   else:
-    result = {**across_keys(key_seeds, runs.evaluate_run_keys(run, key_seeds,
-                                                              metrics_only=args.metrics_only)),
-              "env_steps": run.env_steps}
+    result = {**across_keys(key_seeds, runs.evaluate_run_keys(
+        run, key_seeds, metrics_only=args.metrics_only, protocol=protocol)),
+              "env_steps": run.env_steps, "eval_protocol": protocol}
     print(f"[blx] evaluated with evaluation keys {key_seeds}"
           + (f" and eval_actions={actions!r}" if other else "")
+          + (", the quick protocol's sizes (the curves')" if protocol == "quick" else "")
           + f"; eval.json (key 0) is left as it was{also}", file=sys.stderr)
   # how far the evaluated parameters had trained: an unfinished run's last checkpoint's
   trained = "" if run.env_steps is None else f", trained {run.env_steps:,.0f} env steps per seed"
@@ -287,6 +292,16 @@ def cmd_eval(args) -> int:
       print(f"{key:{width}s}  {means}   ± {s['std_of_mean']:.4f}   per seed ± "
             f"{s['seed_std']:.4f}")
   return 0
+
+
+def _eval_protocol(text: str | None) -> str:
+  """``blx eval --eval-protocol``: "final" where not given, else one of ``EVAL_PROTOCOLS``,
+  checked before the run is loaded and compiled."""
+  from blx.experiments.runs import EVAL_PROTOCOLS
+  if text is not None and text not in EVAL_PROTOCOLS:
+    raise UsageError(f"--eval-protocol {text!r}: give one of {', '.join(EVAL_PROTOCOLS)} (quick: "
+                     "the sizes of the curves logged during training; final: eval.json's)")
+  return text or "final"
 
 
 def _eval_actions(text: str | None) -> str | None:
@@ -491,6 +506,10 @@ def _parser() -> argparse.ArgumentParser:
                  help="how the return episodes act, where not as the run's own (its "
                       "eval_actions: blx's default is sampled, as Braxlines' PPO evaluates; runs "
                       "before session 61 took mean); eval.json is then not written")
+  p.add_argument("--eval-protocol", default=None, metavar="quick|final",
+                 help="with --key-seeds: the sizes the paper's evaluator reads the checkpoint "
+                      "with: final (eval.json's, the default) or quick (those of the curves "
+                      "--eval-metrics logs during training), under the same keys")
   p.set_defaults(fn=cmd_eval)
 
   p = sub.add_parser("render", help="a video of rollouts (one per skill for MI-max)")

@@ -428,16 +428,20 @@ def evaluate_run(run: Run, *, key_seed: int = 0) -> dict[str, list[float]]:
   return evaluate_run_keys(run, (key_seed,))[0]
 
 
-def evaluate_run_keys(run: Run, key_seeds: Sequence[int], *,
-                      metrics_only: bool = False) -> list[dict[str, list[float]]]:
+def evaluate_run_keys(run: Run, key_seeds: Sequence[int], *, metrics_only: bool = False,
+                      protocol: str = "final") -> list[dict[str, list[float]]]:
   """:func:`evaluate_run` once per evaluation key seed in ``key_seeds``, compiled once: how much
   of a final number is the evaluation's own sampling rather than the policy (e.g. a policy that
   picks one of the target's modes per episode, scored on 10 episodes). ``metrics_only`` keeps the
   objective's evaluator alone (the same values under the same keys), without the trainer's
   ``num_eval_envs`` return episodes per seed, most of an evaluation's cost on a CPU; it needs an
-  objective with an evaluator."""
+  objective with an evaluator. ``protocol`` (``EVAL_PROTOCOLS``) sizes the paper's evaluator:
+  "final", eval.json's, or "quick", that of the curves ``--eval-metrics`` logs during training, so
+  that a checkpoint can be read both ways under the same keys."""
+  if protocol not in EVAL_PROTOCOLS:
+    raise ValueError(f"protocol {protocol!r}: valid are {', '.join(EVAL_PROTOCOLS)}")
   trainer = training.make_trainer(run.env, run.objective, run.config)
-  evaluator = evaluator_for(run.env, run.objective)
+  evaluator = evaluator_for(run.env, run.objective, quick=protocol == "quick")
   if metrics_only and evaluator is None:
     raise ValueError(f"metrics_only (blx eval --metrics-only): objective {run.objective.name!r} "
                      "has no evaluator, so its only metrics are the returns this leaves out; "

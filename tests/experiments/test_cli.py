@@ -225,10 +225,33 @@ def test_eval_metrics_only_gives_the_evaluators_values_without_the_return_episod
     np.testing.assert_allclose(values, full[metric], rtol=1e-5, atol=1e-6, err_msg=metric)
 
 
+def test_eval_reads_a_checkpoint_with_the_quick_protocol_under_the_same_keys(trained, capsys,
+                                                                              monkeypatch):
+  # --eval-protocol quick: the evaluator of the curves logged during training (fewer episodes),
+  # under the same keys as the final one; final (the default) is eval.json's own evaluation.
+  from blx.experiments import runs
+  built = []
+  real = runs.evaluator_for
+  monkeypatch.setattr(runs, "evaluator_for", lambda env, objective, quick=False: (
+      built.append(quick) or real(env, objective, quick=quick)))
+  final, _, own = _eval_keeping_eval_json(trained, capsys, "--key-seeds", "0", "--metrics-only",
+                                          "--eval-protocol", "final")
+  quick, told, _ = _eval_keeping_eval_json(trained, capsys, "--key-seeds", "0", "--metrics-only",
+                                           "--eval-protocol", "quick")
+  assert built == [False, True]
+  assert (final["eval_protocol"], quick["eval_protocol"]) == ("final", "quick")
+  assert "the quick protocol's sizes" in told
+  np.testing.assert_allclose(final["per_key"][0]["per_seed"]["eval/mi"],
+                             own["per_seed"]["eval/mi"], rtol=1e-5)
+  assert quick["per_key"][0]["per_seed"]["eval/mi"] != final["per_key"][0]["per_seed"]["eval/mi"]
+  with pytest.raises(ValueError, match="protocol 'slow': valid are quick, final"):
+    runs.evaluate_run_keys(runs.load_run(trained), [0], protocol="slow")
+
+
 def test_eval_metrics_only_refuses_an_objective_without_an_evaluator(trained, monkeypatch):
   from blx.experiments import runs
   run = runs.load_run(trained)
-  monkeypatch.setattr(runs, "evaluator_for", lambda env, objective: None)
+  monkeypatch.setattr(runs, "evaluator_for", lambda env, objective, quick=False: None)
   with pytest.raises(ValueError, match="objective 'diayn' has no evaluator, so its only metrics"):
     runs.evaluate_run_keys(run, [0], metrics_only=True)
 
@@ -471,6 +494,9 @@ def test_a_task_sweeps_table_gives_the_episode_length_beside_the_score(tmp_path)
     (["eval", "anyrun", "--key-seeds", "1,1"], "--key-seeds '1,1': give distinct ints"),
     (["eval", "anyrun", "--key-seeds", "-1"], "--key-seeds '-1': give distinct ints"),
     (["eval", "anyrun", "--metrics-only"], "--metrics-only applies with --key-seeds"),
+    (["eval", "anyrun", "--eval-protocol", "quick"], "--eval-protocol applies with --key-seeds"),
+    (["eval", "anyrun", "--key-seeds", "0", "--eval-protocol", "slow"],
+     "--eval-protocol 'slow': give one of quick, final"),
     (["eval", "anyrun", "--eval-actions", "greedy"], "--eval-actions 'greedy': give one of "
                                                      "sampled, mean"),
 ])
