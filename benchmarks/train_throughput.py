@@ -6,7 +6,7 @@
 For each num_envs: the ant row of ``ppo_defaults`` (num_envs changed; batch_size * num_minibatches
 = num_envs / 2, 32 minibatches: 16 unrolls per env per iteration as the original), time from start to the first finished training chunk (compile
 included), then env steps/s of the jitted chunk; raw physics is ``mjx.step`` on the same model at the
-same batch, expressed per env step (5 substeps). Prints a Markdown table.
+same batch, expressed per env step (``substeps`` physics steps). Prints a Markdown table.
 
 Each ``--edits`` (a JSON object of ``{"dotted.path": value}``, as ``blx.envs.create`` takes) times
 every num_envs once more on the env with those edits, in the same process, e.g. the ant's contact
