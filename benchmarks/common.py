@@ -175,7 +175,11 @@ def picked_seeds(run, picked: Sequence[int], key_seed: int) -> tuple:
   return jax.tree.map(lambda x: x[at], run.params), keys
 
 
-def policy_latents(run, key: jax.Array, num_latents: int = 8) -> tuple[jax.Array, bool]:
+POLICY_LATENTS = 8  # the draws of a continuous prior an analysis rolls a policy out under
+
+
+def policy_latents(run, key: jax.Array,
+                   num_latents: int = POLICY_LATENTS) -> tuple[jax.Array, bool]:
   """``(latents [L, Z], conditioned)``: what a loaded run's policy is rolled out under in the
   analyses. Where it takes a latent (its objective's ``conditions_policy``, an MI-max run's), the
   evaluator's (``metrics.latents_for_evaluation``: every skill of a categorical prior,

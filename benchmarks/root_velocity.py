@@ -44,7 +44,7 @@ import common  # noqa: E402
 from blx import metrics  # noqa: E402
 
 ANGLES = ("body_direction_deg", "heading_deg")
-LATENTS = 8  # --latents' default: the draws of a continuous prior a policy runs under
+LATENTS = common.POLICY_LATENTS  # --latents' default, the analyses' own
 
 
 def episodes(run, params, key: jax.Array, num: int, deterministic: bool,
