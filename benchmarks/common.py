@@ -175,6 +175,17 @@ def picked_seeds(run, picked: Sequence[int], key_seed: int) -> tuple:
   return jax.tree.map(lambda x: x[at], run.params), keys
 
 
+def require_discrete_skills(run, parser, why: str) -> None:
+  """``parser.error`` unless a loaded run's objective is MI-max with discrete skills (a categorical
+  prior), naming its prior and the valid one; ``why`` says what the analysis needs them for."""
+  from blx.objectives.specs import MimaxSpec
+  spec = run.objective.spec
+  kind = spec.prior.kind if isinstance(spec, MimaxSpec) else None
+  if kind != "categorical":
+    parser.error(f"{run.directory}: {run.spec.objective} is not an MI-max objective with discrete "
+                 f"skills (prior {kind!r}, valid: 'categorical'); {why}")
+
+
 POLICY_LATENTS = 8  # the draws of a continuous prior an analysis rolls a policy out under
 
 

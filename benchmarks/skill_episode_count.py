@@ -54,7 +54,6 @@ import common  # noqa: E402
 
 from blx import metrics  # noqa: E402
 from blx.experiments import plots, runs  # noqa: E402
-from blx.objectives.specs import MimaxSpec  # noqa: E402
 
 BINS = 1000  # the protocol's (metrics.mimax_evaluator)
 QUICK, FINAL = 4, 10  # episodes per skill of the two protocols (blx.metrics.families.ROLLOUTS)
@@ -171,12 +170,7 @@ def plot(result: dict, path: str) -> str:
 
 
 def _check_run(run: runs.Run, parser) -> None:
-  spec = run.objective.spec
-  kind = spec.prior.kind if isinstance(spec, MimaxSpec) else None
-  if kind != "categorical":
-    parser.error(f"{run.directory}: {run.spec.objective} is not an MI-max objective with discrete "
-                 f"skills (prior {kind!r}, valid: 'categorical'); this analysis draws episodes "
-                 "per skill")
+  common.require_discrete_skills(run, parser, "this analysis draws episodes per skill")
 
 
 def _positive_ints(parser, text: str, flag: str) -> list[int]:
@@ -193,7 +187,7 @@ def main(argv=None) -> int:
   parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
   common.add_analysis_arguments(parser, "an MI-max run directory with discrete skills "
                                 "(config.json and checkpoint)")
-  parser.add_argument("--pool", type=int, default=20,
+  parser.add_argument("--pool", type=int, default=None,
                       help="episodes of each skill rolled out per seed (default 20)")
   parser.add_argument("--sizes", default=None,
                       help="episodes per skill read together, comma-separated, each at most "
@@ -201,7 +195,7 @@ def main(argv=None) -> int:
   parser.add_argument("--states", type=int, default=None,
                       help="states per skill of the fixed-state reading (default 4 x the scored "
                            "steps, the quick protocol's)")
-  parser.add_argument("--draws", type=int, default=200,
+  parser.add_argument("--draws", type=int, default=None,
                       help="random sets of k episodes per skill read for each k (default 200)")
   parser.add_argument("--plot", action="store_true",
                       help="only draw skill_episode_count.png from the JSON")
@@ -210,20 +204,28 @@ def main(argv=None) -> int:
           else "skill_episode_count")
   out = args.out or os.path.join(args.run, name + ".json")
   if args.plot:
+    unused = [flag for flag, v in (("--seeds", args.seeds), ("--pool", args.pool),
+                                   ("--sizes", args.sizes), ("--states", args.states),
+                                   ("--draws", args.draws)) if v is not None]
+    if unused:
+      parser.error(f"{', '.join(unused)}: choose the analysis; --plot draws its JSON (--out, "
+                   "--deterministic: which one)")
     if not os.path.exists(out):
       parser.error(f"{out}: no result to plot; run the analysis first (without --plot)")
     with open(out) as f:
       result = json.load(f)
     print(f"wrote {plot(result, os.path.join(args.run, name + '.png'))}")
     return 0
-  if args.pool < 1:
-    parser.error(f"--pool {args.pool}: give at least 1 episode per skill")
-  if args.draws < 1:
-    parser.error(f"--draws {args.draws}: give at least 1")
+  pool = 20 if args.pool is None else args.pool
+  draws = 200 if args.draws is None else args.draws
+  if pool < 1:
+    parser.error(f"--pool {pool}: give at least 1 episode per skill")
+  if draws < 1:
+    parser.error(f"--draws {draws}: give at least 1")
   sizes = (_positive_ints(parser, args.sizes, "--sizes") if args.sizes is not None
-           else sorted({k for k in (1, 2, QUICK, FINAL) if k <= args.pool} | {args.pool}))
-  if sizes[-1] > args.pool:
-    parser.error(f"--sizes {args.sizes}: {sizes[-1]} is more than the --pool of {args.pool} "
+           else sorted({k for k in (1, 2, QUICK, FINAL) if k <= pool} | {pool}))
+  if sizes[-1] > pool:
+    parser.error(f"--sizes {args.sizes}: {sizes[-1]} is more than the --pool of {pool} "
                  "episodes per skill")
   run, picked = common.load_picked(parser, args.run, args.seeds)
   _check_run(run, parser)
@@ -241,21 +243,21 @@ def main(argv=None) -> int:
 
   def one(p, k):
     roll_key, read_key = jax.random.split(k)
-    scored = pooled_episodes(run, p, roll_key, args.pool, deterministic=args.deterministic)
-    return readings(scored, read_key, sizes, args.draws, scale, states)
+    scored = pooled_episodes(run, p, roll_key, pool, deterministic=args.deterministic)
+    return readings(scored, read_key, sizes, draws, scale, states)
 
   values = {k: np.asarray(v).tolist() for k, v in jax.jit(jax.vmap(one))(params, keys).items()}
   result = {"run": os.path.abspath(args.run), "seeds": [run.spec.seeds[p] for p in picked],
             "label": common.run_label(run.spec, directory=run.directory),
             "feature": plots.feature_labels(run.env, metrics.eval_indices(run.objective)[:1])[0],
-            "deterministic": args.deterministic, "pool": args.pool, "sizes": sizes,
+            "deterministic": args.deterministic, "pool": pool, "sizes": sizes,
             "fixed_state_sizes": fixed, "states": states, "scored_steps": length,
-            "draws": args.draws, "num_skills": run.objective.spec.prior.dim,
+            "draws": draws, "num_skills": run.objective.spec.prior.dim,
             "ln_num_skills": math.log(run.objective.spec.prior.dim), "per_seed": values}
   common.write_json(out, result)
   actions = "mean" if args.deterministic else "sampled"
   print(f"{run.spec.objective} on {run.spec.env}, seeds {result['seeds']}, {actions} actions, "
-        f"{args.pool} episodes per skill pooled, {args.draws} draws")
+        f"{pool} episodes per skill pooled, {draws} draws")
   print(common.seed_table({k: v for k, v in values.items() if "_std/" not in k},
                           "reading/k (per observed dimension)"))
   print(f"wrote {out}")

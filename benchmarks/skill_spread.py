@@ -63,7 +63,6 @@ import common  # noqa: E402
 
 from blx import metrics  # noqa: E402
 from blx.experiments import plots, runs  # noqa: E402
-from blx.objectives.specs import MimaxSpec  # noqa: E402
 
 BINS = 1000
 EPISODES = 10
@@ -123,12 +122,7 @@ def spread(states: jax.Array, scale: float, last: int, window: int) -> dict:
 
 
 def _check_run(run: runs.Run, parser) -> None:
-  spec = run.objective.spec
-  kind = spec.prior.kind if isinstance(spec, MimaxSpec) else None
-  if kind != "categorical":
-    parser.error(f"{run.directory}: {run.spec.objective} is not an MI-max objective with discrete "
-                 f"skills (prior {kind!r}, valid: 'categorical'); this analysis splits the scored "
-                 "states by skill")
+  common.require_discrete_skills(run, parser, "this analysis splits the scored states by skill")
 
 
 def plot(run: runs.Run, position: int, *, deterministic: bool) -> str:

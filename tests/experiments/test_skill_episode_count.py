@@ -111,6 +111,8 @@ def test_bad_options_are_refused_naming_what_is_valid(tmp_path, monkeypatch, cap
                         ([str(tmp_path), "--states", "7", "--sizes", "2,4"],
                          "no size of [2, 4] splits it evenly"),
                         ([str(tmp_path), "--seeds", "3"], "the run has 2 seeds"),
+                        ([str(tmp_path), "--plot", "--draws", "5", "--seeds", "0"],
+                         "--seeds, --draws: choose the analysis; --plot draws its JSON"),
                         ([str(tmp_path), "--plot"], "no result to plot")):
     with pytest.raises(SystemExit):
       skill_episode_count.main(argv)
