@@ -17,16 +17,17 @@ this script tells apart:
 - **fewer courses**: each episode of a skill takes a course of its own (its speed, its heading, the
   moment it falls), and a few episodes hold fewer of the skill's courses than many do.
 
-Per seed, the run's final policy rolls out ``--pool`` episodes of every skill (as the protocol's
-evaluator: actions sampled unless ``--deterministic``, the last half of each episode scored, at
-most 500 steps). Then for each k in ``--sizes``, ``--draws`` times, k of the pooled episodes of
+Per seed, the policy of the run's checkpoint (its last; ``env_steps`` in the JSON says where)
+rolls out ``--pool`` episodes of every skill (as the protocol's evaluator: actions sampled unless
+``--deterministic``, the last half of each episode scored, at most 500 steps). Then for each k in ``--sizes``, ``--draws`` times, k of the pooled episodes of
 each skill are drawn (without replacement, each skill its own) and read two ways:
 
 - ``mi/k``, ``entropy/k``, ``cond_entropy/k``: every scored step of the k episodes, as an
   evaluation of k episodes per skill reads them (the protocols: k = 4 quick, 10 final);
-- ``mi_fixed_states/k`` (and the entropies): ``--states`` states per skill whatever k (default
-  the quick protocol's: 4 episodes x the scored steps), ``--states`` / k evenly spaced steps of each
-  episode's scored window; only for k whose share fits the window.
+- ``mi_fixed_states/k``, ``entropy_fixed_states/k``, ``cond_entropy_fixed_states/k``:
+  ``--states`` states per skill whatever k (default the quick protocol's: 4 episodes x the scored
+  steps), ``--states`` / k evenly spaced steps of each episode's scored window; only for k that
+  divide ``--states`` into shares that fit the window.
 
 Where the fixed-state reading stays level in k while ``mi/k`` falls, the number of states makes the
 gap; where it falls as ``mi/k`` does, the number of courses. Each value is the mean over the draws
@@ -252,7 +253,7 @@ def main(argv=None) -> int:
             "feature": plots.feature_labels(run.env, metrics.eval_indices(run.objective)[:1])[0],
             "deterministic": args.deterministic, "pool": pool, "sizes": sizes,
             "fixed_state_sizes": fixed, "states": states, "scored_steps": length,
-            "draws": draws, "num_skills": run.objective.spec.prior.dim,
+            "draws": draws, "env_steps": run.env_steps, "num_skills": run.objective.spec.prior.dim,
             "ln_num_skills": math.log(run.objective.spec.prior.dim), "per_seed": values}
   common.write_json(out, result)
   actions = "mean" if args.deterministic else "sampled"
