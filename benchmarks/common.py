@@ -16,6 +16,7 @@ from mujoco import mjx
 
 from blx import envs, metrics
 from blx.experiments import runs
+from blx.objectives.specs import MimaxSpec
 from blx.training import PPOConfig
 from blx.training import config as ppo_config
 
@@ -178,7 +179,6 @@ def picked_seeds(run, picked: Sequence[int], key_seed: int) -> tuple:
 def require_discrete_skills(run, parser, why: str) -> None:
   """``parser.error`` unless a loaded run's objective is MI-max with discrete skills (a categorical
   prior), naming its prior and the valid one; ``why`` says what the analysis needs them for."""
-  from blx.objectives.specs import MimaxSpec
   spec = run.objective.spec
   kind = spec.prior.kind if isinstance(spec, MimaxSpec) else None
   if kind != "categorical":
