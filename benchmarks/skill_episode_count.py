@@ -105,12 +105,12 @@ def readings(scored: jax.Array, key: jax.Array, sizes, draws: int, scale: float,
              states: int) -> dict:
   """Per seed: ``{"<reading>/<k>": [D], "<reading>_std/<k>": [D]}`` for every k of ``sizes``, the
   fixed-state readings only where ``states`` / k steps fit each episode's scored window."""
-  length = scored.shape[2]
+  fixed = fixed_state_sizes(sizes, states, scored.shape[2])
   out = {}
   for k in sizes:
     key, every_key, fixed_key = jax.random.split(key, 3)
     arms = [(READINGS[0], read_subsets(scored, every_key, k, draws, scale))]
-    if states % k == 0 and states // k <= length:
+    if k in fixed:
       arms.append((READINGS[1], read_subsets(scored, fixed_key, k, draws, scale, states // k)))
     for names, got in arms:
       for name, base in zip(names, ("mi", "cond_entropy", "entropy")):

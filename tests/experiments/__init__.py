@@ -4,6 +4,8 @@ import importlib.util
 import pathlib
 import sys
 
+import jax.numpy as jnp
+
 BENCHMARKS = pathlib.Path(__file__).resolve().parents[2] / "benchmarks"
 
 
@@ -27,3 +29,17 @@ def load_benchmark(name: str):
     del sys.modules[name]
     raise
   return module
+
+
+class EchoEnv:
+  """A one-number env for the analyses' rollout tests: its observation is the last action, so a
+  policy's episodes read back exactly what it chose (wrap it in ``blx.envs.episode``)."""
+
+  observation_size, action_size = 1, 1
+
+  def reset(self, key):
+    from blx.envs.env import State
+    return State(data=jnp.zeros(()), obs=jnp.zeros(1), reward=jnp.zeros(()), done=jnp.zeros(()))
+
+  def step(self, state, action):
+    return state.replace(data=state.data + 1.0, obs=action)

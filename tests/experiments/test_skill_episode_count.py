@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from blx import envs, objectives
-from tests.experiments import load_benchmark
+from tests.experiments import EchoEnv, load_benchmark
 
 skill_episode_count = load_benchmark("skill_episode_count")
 SCALE = 5.0
@@ -74,21 +74,8 @@ def test_the_readings_hold_the_states_per_skill_fixed_where_they_split_evenly():
       scored, jax.random.PRNGKey(0), [3], 1, SCALE, 8)
 
 
-class _Echo:
-  """Observation: the last action."""
-
-  observation_size, action_size = 1, 1
-
-  def reset(self, key):
-    from blx.envs.env import State
-    return State(data=jnp.zeros(()), obs=jnp.zeros(1), reward=jnp.zeros(()), done=jnp.zeros(()))
-
-  def step(self, state, action):
-    return state.replace(data=state.data + 1.0, obs=action)
-
-
 def test_the_pool_holds_every_skills_episodes_in_the_scored_window():
-  run = SimpleNamespace(env=envs.episode(_Echo(), 8),
+  run = SimpleNamespace(env=envs.episode(EchoEnv(), 8),
                         policy=lambda p, o, z, key=None, deterministic=False:
                         (jnp.argmax(z, -1).astype(jnp.float32) - 1.5)[:, None],
                         objective=objectives.diayn(num_skills=4, obs_indices=(0,), obs_scale=5.0))
@@ -100,7 +87,7 @@ def test_the_pool_holds_every_skills_episodes_in_the_scored_window():
 
 
 def test_bad_options_are_refused_naming_what_is_valid(tmp_path, monkeypatch, capsys):
-  run = SimpleNamespace(directory=str(tmp_path), env=envs.episode(_Echo(), 8),
+  run = SimpleNamespace(directory=str(tmp_path), env=envs.episode(EchoEnv(), 8),
                         spec=SimpleNamespace(seeds=(0, 1), objective="diayn", env="point"),
                         objective=objectives.diayn(num_skills=4, obs_indices=(0,)))
   monkeypatch.setattr(skill_episode_count.runs, "load_run", lambda directory: run)

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from blx import envs, objectives
-from tests.experiments import load_benchmark
+from tests.experiments import EchoEnv, load_benchmark
 
 skill_spread = load_benchmark("skill_spread")
 
@@ -81,25 +81,12 @@ def test_the_trailing_mean_averages_the_window_up_to_each_step():
   np.testing.assert_allclose(got, want, rtol=1e-5, atol=1e-6)
 
 
-class _Echo:
-  """Observation: the last action."""
-
-  observation_size, action_size = 1, 1
-
-  def reset(self, key):
-    from blx.envs.env import State
-    return State(data=jnp.zeros(()), obs=jnp.zeros(1), reward=jnp.zeros(()), done=jnp.zeros(()))
-
-  def step(self, state, action):
-    return state.replace(data=state.data + 1.0, obs=action)
-
-
 def _skill_policy(params, obs, z, key=None, deterministic=False):
   return (jnp.argmax(z, -1).astype(jnp.float32) - 1.5)[:, None]  # skill k at MEANS[k]
 
 
 def test_the_protocol_episodes_give_every_skill_its_episodes():
-  run = SimpleNamespace(env=envs.episode(_Echo(), 8), policy=_skill_policy,
+  run = SimpleNamespace(env=envs.episode(EchoEnv(), 8), policy=_skill_policy,
                         objective=objectives.diayn(num_skills=4, obs_indices=(0,), obs_scale=5.0))
   states = jax.jit(lambda k: skill_spread.episodes(run, {}, k, deterministic=True))(
       jax.random.PRNGKey(0))
@@ -124,7 +111,7 @@ def test_a_run_without_discrete_skills_is_refused_with_the_valid_prior(capsys):
 
 
 def test_the_command_refuses_a_seed_the_run_does_not_have(tmp_path, monkeypatch, capsys):
-  run = SimpleNamespace(directory=str(tmp_path), env=envs.episode(_Echo(), 8),
+  run = SimpleNamespace(directory=str(tmp_path), env=envs.episode(EchoEnv(), 8),
                         spec=SimpleNamespace(seeds=(0, 1), objective="diayn", env="point"),
                         objective=objectives.diayn(num_skills=4, obs_indices=(0,)))
   monkeypatch.setattr(skill_spread.runs, "load_run", lambda directory: run)
