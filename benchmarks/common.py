@@ -176,14 +176,22 @@ def picked_seeds(run, picked: Sequence[int], key_seed: int) -> tuple:
   return jax.tree.map(lambda x: x[at], run.params), keys
 
 
-def require_discrete_skills(run, parser, why: str) -> None:
+CONTINUOUS_PRIORS = ("uniform",)  # the kinds of blx.objectives.priors the evaluator draws latents of
+
+
+def require_discrete_skills(run, parser, why: str, *, continuous: bool = False) -> bool:
   """``parser.error`` unless a loaded run's objective is MI-max with discrete skills (a categorical
-  prior), naming its prior and the valid one; ``why`` says what the analysis needs them for."""
+  prior), or with ``continuous`` also a continuous prior (``CONTINUOUS_PRIORS``, whose latents
+  the evaluator draws and reads as skills), naming its prior and the valid ones; ``why`` says what
+  the analysis needs them for. Returns whether the prior is continuous."""
   spec = run.objective.spec
   kind = spec.prior.kind if isinstance(spec, MimaxSpec) else None
-  if kind != "categorical":
-    parser.error(f"{run.directory}: {run.spec.objective} is not an MI-max objective with discrete "
-                 f"skills (prior {kind!r}, valid: 'categorical'); {why}")
+  valid = ("categorical",) + (CONTINUOUS_PRIORS if continuous else ())
+  if kind not in valid:
+    parser.error(f"{run.directory}: {run.spec.objective} is not an MI-max objective with "
+                 f"{'skills or latents' if continuous else 'discrete skills'} (prior {kind!r}, "
+                 f"valid: {', '.join(repr(v) for v in valid)}); {why}")
+  return kind in CONTINUOUS_PRIORS
 
 
 POLICY_LATENTS = 8  # the draws of a continuous prior an analysis rolls a policy out under

@@ -1,10 +1,11 @@
-"""How a discrete-skill MI-max row's MI depends on the number of episodes per skill it is read from
-(#15): the quick protocol's 4 (the curves logged during training) against the final evaluation's
-10 (``eval.json``, the paper's), and why.
+"""How an MI-max row's MI depends on the number of episodes per skill it is read from (#15): the
+quick protocol's 4 (the curves logged during training) against the final evaluation's 10
+(``eval.json``, the paper's), and why; for a continuous prior (cDIAYN, GCRL) also on the number of
+latents drawn, 4 in the quick protocol and 10 in the final.
 
     python benchmarks/skill_episode_count.py RUN_DIR [--seeds 0,1] [--pool 20] [--sizes 1,2,4,10,20]
-                                                [--states 2000] [--draws 200] [--deterministic]
-                                                [--out FILE.json]
+                                                [--latents 4,10] [--states 2000] [--draws 200]
+                                                [--deterministic] [--out FILE.json]
     python benchmarks/skill_episode_count.py RUN_DIR --plot   # skill_episode_count.png
 
 The paper's estimator (Algorithm 1) reads H(s) and H(s|z) from histograms of every scored state of
@@ -32,6 +33,13 @@ each skill are drawn (without replacement, each skill its own) and read two ways
 Where the fixed-state reading stays level in k while ``mi/k`` falls, the number of states makes the
 gap; where it falls as ``mi/k`` does, the number of courses. Each value is the mean over the draws
 (``*_std``: their std, how far one evaluation moves); with k = the pool every draw is the same.
+
+A continuous prior has no fixed skills: the evaluator draws latents from it (the paper's num_z)
+and reads each as a skill, so the MI it can read is at most ln of their number, ln 4 = 1.39 in
+the quick protocol and ln 10 = 2.30 in the final. Here ``--pool`` latents are drawn per seed, each
+rolled out ``--pool`` times, and every reading is taken for each m of ``--latents`` (default the
+protocols' 4 and 10): m of the pooled latents drawn at random, then k episodes of each. Its keys
+carry m: ``mi/<m>_latents/<k>``. The quick protocol reads (m, k) = (4, 4), the final (10, 10).
 
 Writes ``--out`` (default RUN_DIR/skill_episode_count.json; ``--deterministic``:
 skill_episode_count_deterministic.json) and prints the table; ``--plot`` draws
@@ -63,8 +71,8 @@ READINGS = (("mi", "cond_entropy", "entropy"), ("mi_fixed_states", "cond_entropy
 
 
 def pooled_episodes(run, params, key: jax.Array, pool: int, *, deterministic: bool) -> jax.Array:
-  """``pool`` episodes of every skill, their scored window of the observed feature
-  ``[K, pool, T, D]``."""
+  """``pool`` episodes of every skill (a continuous prior: of each of ``pool`` latents drawn),
+  their scored window of the observed feature ``[K, pool, T, D]``."""
   indices = np.asarray(metrics.eval_indices(run.objective))
   z_key, roll_key = jax.random.split(key)
   latents = metrics.latents_for_evaluation(run.objective, z_key, pool)
@@ -80,20 +88,26 @@ def evenly_spaced(length: int, count: int) -> np.ndarray:
 
 
 def read_subsets(scored: jax.Array, key: jax.Array, k: int, draws: int, scale: float,
-                 steps: int | None = None) -> dict:
+                 steps: int | None = None, latents: int | None = None) -> dict:
   """The estimator on ``draws`` random sets of ``k`` of each skill's pooled episodes
   ``scored [K, P, T, D]``, every scored step (``steps`` None) or ``steps`` evenly spaced ones of
-  each episode: ``{mi, entropy, cond_entropy}``, each ``{"mean": [D], "std": [D]}`` over draws."""
+  each episode: ``{mi, entropy, cond_entropy}``, each ``{"mean": [D], "std": [D]}`` over draws.
+  With ``latents`` m (a continuous prior's pooled draws), each set reads m of the K at random,
+  each its own label; None reads all K (a categorical prior's skills)."""
   num, pool, length, dims = scored.shape
+  m = num if latents is None else latents
   at = jnp.asarray(evenly_spaced(length, steps if steps is not None else length))
-  labels = jnp.repeat(jnp.arange(num), k * at.shape[0])
+  labels = jnp.repeat(jnp.arange(m), k * at.shape[0])
 
   def one(draw_key):
+    latent_key, episode_key = jax.random.split(draw_key)
+    which = (jnp.arange(num) if latents is None
+             else jax.random.permutation(latent_key, num)[:m])       # [m]
     picks = jax.vmap(lambda s: jax.random.permutation(s, pool)[:k])(
-        jax.random.split(draw_key, num))                             # [K, k]
-    chosen = jnp.take_along_axis(scored, picks[:, :, None, None], axis=1)[:, :, at]
+        jax.random.split(episode_key, m))                            # [m, k]
+    chosen = jnp.take_along_axis(scored[which], picks[:, :, None, None], axis=1)[:, :, at]
     out = metrics.mutual_information(chosen.reshape(-1, dims), labels, bins=BINS,
-                                     value_range=(-scale, scale), num_labels=num)
+                                     value_range=(-scale, scale), num_labels=m)
     return out["mi"], out["entropy"], out["conditional_entropy"]
 
   mi, h, hz = jax.lax.map(one, jax.random.split(key, draws))
@@ -101,21 +115,29 @@ def read_subsets(scored: jax.Array, key: jax.Array, k: int, draws: int, scale: f
           for name, v in (("mi", mi), ("entropy", h), ("cond_entropy", hz))}
 
 
+def reading_key(name: str, k: int, latents: int | None = None) -> str:
+  """A reading's key in ``per_seed``: ``name/k``, or ``name/<m>_latents/k`` for m latents."""
+  return f"{name}/{k}" if latents is None else f"{name}/{latents}_latents/{k}"
+
+
 def readings(scored: jax.Array, key: jax.Array, sizes, draws: int, scale: float,
-             states: int) -> dict:
-  """Per seed: ``{"<reading>/<k>": [D], "<reading>_std/<k>": [D]}`` for every k of ``sizes``, the
-  fixed-state readings only where ``states`` / k steps fit each episode's scored window."""
+             states: int, latent_counts=None) -> dict:
+  """Per seed: ``{"<reading>/<k>": [D], "<reading>_std/<k>": [D]}`` for every k of ``sizes`` (and
+  every m of ``latent_counts``, keyed by ``reading_key``; None: all K skills), the fixed-state
+  readings only where ``states`` / k steps fit each episode's scored window."""
   fixed = fixed_state_sizes(sizes, states, scored.shape[2])
   out = {}
-  for k in sizes:
-    key, every_key, fixed_key = jax.random.split(key, 3)
-    arms = [(READINGS[0], read_subsets(scored, every_key, k, draws, scale))]
-    if k in fixed:
-      arms.append((READINGS[1], read_subsets(scored, fixed_key, k, draws, scale, states // k)))
-    for names, got in arms:
-      for name, base in zip(names, ("mi", "cond_entropy", "entropy")):
-        out[f"{name}/{k}"] = got[base]["mean"]
-        out[f"{name}_std/{k}"] = got[base]["std"]
+  for m in latent_counts or (None,):
+    for k in sizes:
+      key, every_key, fixed_key = jax.random.split(key, 3)
+      arms = [(READINGS[0], read_subsets(scored, every_key, k, draws, scale, latents=m))]
+      if k in fixed:
+        arms.append((READINGS[1], read_subsets(scored, fixed_key, k, draws, scale, states // k,
+                                               latents=m)))
+      for names, got in arms:
+        for name, base in zip(names, ("mi", "cond_entropy", "entropy")):
+          out[reading_key(name, k, m)] = got[base]["mean"]
+          out[reading_key(name + "_std", k, m)] = got[base]["std"]
   return out
 
 
@@ -127,51 +149,66 @@ def fixed_state_sizes(sizes, states: int, length: int) -> list[int]:
 
 def plot(result: dict, path: str) -> str:
   """Draws ``path`` from a result of ``main``: MI and H(s|z) of the first observed dimension
-  against episodes per skill, each seed faint, their mean bold, both readings, the protocols' k
-  marked."""
+  against episodes per skill, each seed faint, their mean bold, both readings (and, for a
+  continuous prior, each number of latents), the protocols' k marked."""
   import matplotlib
   matplotlib.use("Agg")
   import matplotlib.pyplot as plt
   v = result["per_seed"]
   sizes = result["sizes"]
   fixed = result["fixed_state_sizes"]
-  fig, axes = plt.subplots(1, 2, figsize=(12, 4.4))
+  counts = result.get("latent_counts") or [None]
+  unit = "skill" if counts == [None] else "latent"
+  fig, axes = plt.subplots(1, 2, figsize=(12, 4.8 if len(counts) > 1 else 4.4))
   for ax, (every, fixed_name, label) in zip(axes, (
       ("mi", "mi_fixed_states", "MI(s, z)"),
       ("cond_entropy", "cond_entropy_fixed_states", "H(s | z)"))):
-    for name, ks, color, text in (
-        (every, sizes, "C0", "every scored step of k episodes (k x "
-         f"{result['scored_steps']} states per skill)"),
-        (fixed_name, fixed, "C3", f"{result['states']} states per skill, spread over k episodes")):
-      if not ks:
-        continue
-      ys = np.array([[row[0] for row in v[f"{name}/{k}"]] for k in ks])   # [sizes, seeds]
-      for seed in range(ys.shape[1]):
-        ax.plot(ks, ys[:, seed], color=color, alpha=0.2, lw=0.8)
-      ax.plot(ks, ys.mean(1), color=color, lw=2.2, marker="o", label=text + ", mean of seeds")
+    for m, style, marker in zip(counts, ("-", "--", "-.", ":"), ("o", "s", "^", "v")):
+      of = "" if m is None else f"{m} latents, "
+      for name, ks, color, text in (
+          (every, sizes, "C0", f"every scored step of k episodes (k x {result['scored_steps']} "
+           f"states per {unit})"),
+          (fixed_name, fixed, "C3", f"{result['states']} states per {unit}, spread over k "
+           "episodes")):
+        if not ks:
+          continue
+        ys = np.array([[row[0] for row in v[reading_key(name, k, m)]] for k in ks])  # [k, seeds]
+        for seed in range(ys.shape[1]):
+          ax.plot(ks, ys[:, seed], color=color, ls=style, alpha=0.2, lw=0.8)
+        ax.plot(ks, ys.mean(1), color=color, ls=style, lw=2.2, marker=marker,
+                label=of + text + ", mean of seeds")
     for k, name, style in ((QUICK, "quick protocol", ":"), (FINAL, "final protocol", "--")):
       if min(sizes) <= k <= max(sizes):
-        ax.axvline(k, color="k", ls=style, lw=1, label=f"{name}: {k} episodes per skill")
+        what = f"{k} episodes per skill" if unit == "skill" else f"{k} latents x {k} episodes"
+        ax.axvline(k, color="k", ls=style, lw=1, label=f"{name}: {what}")
+        if k in counts:   # a continuous prior's protocol reads k latents: its point, starred
+          y = np.mean([row[0] for row in v[reading_key(every, k, k)]])
+          ax.plot([k], [y], "k*", ms=13, zorder=5,
+                  label="the protocols' readings" if k == QUICK or QUICK not in counts else None)
     ax.set_xscale("log")
     ax.set_xticks(sizes, [str(k) for k in sizes])
     ax.minorticks_off()
-    ax.set_xlabel("episodes per skill read together (k)")
+    ax.set_xlabel(f"episodes per {unit} read together (k)")
     ax.set_ylabel(f"{label} of {result['feature']}, nats")
     ax.grid(alpha=0.3)
   axes[0].legend(fontsize=7, loc="best")
   actions = "mean" if result["deterministic"] else "sampled"
+  pooled = (f"k of {result['pool']} pooled episodes per skill" if unit == "skill" else
+            f"m of {result['pool']} pooled latents, k of {result['pool']} episodes of each")
   fig.suptitle(plots.fit_title(
-      f"{result['label']}\nthe paper's MI estimator on k of {result['pool']} pooled episodes per "
-      f"skill ({actions} actions; each point the mean of {result['draws']} draws)", fig),
-      fontsize=10)
+      f"{result['label']}, checkpoint at {result['env_steps'] / 1e6:.1f} M env steps\nthe paper's "
+      f"MI estimator on {pooled} ({actions} actions; each point the mean of {result['draws']} "
+      "draws)", fig), fontsize=10)
   fig.tight_layout()
   fig.savefig(path, dpi=120)
   plt.close(fig)
   return path
 
 
-def _check_run(run: runs.Run, parser) -> None:
-  common.require_discrete_skills(run, parser, "this analysis draws episodes per skill")
+def _check_run(run: runs.Run, parser) -> bool:
+  """Whether the run's prior is continuous; ``parser.error`` where it has no skills to read."""
+  return common.require_discrete_skills(run, parser, "this analysis draws episodes per skill",
+                                        continuous=True)
 
 
 def _positive_ints(parser, text: str, flag: str) -> list[int]:
@@ -186,13 +223,17 @@ def _positive_ints(parser, text: str, flag: str) -> list[int]:
 
 def main(argv=None) -> int:
   parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-  common.add_analysis_arguments(parser, "an MI-max run directory with discrete skills "
-                                "(config.json and checkpoint)")
+  common.add_analysis_arguments(parser, "an MI-max run directory with discrete skills or a "
+                                "continuous prior (config.json and checkpoint)")
   parser.add_argument("--pool", type=int, default=None,
-                      help="episodes of each skill rolled out per seed (default 20)")
+                      help="episodes of each skill rolled out per seed (default 20); a "
+                           "continuous prior's: latents drawn per seed, and episodes of each")
   parser.add_argument("--sizes", default=None,
                       help="episodes per skill read together, comma-separated, each at most "
                            "--pool (default 1,2,4,10 and the pool)")
+  parser.add_argument("--latents", default=None,
+                      help="a continuous prior's: latents read together, comma-separated, each at "
+                           "least 2 and at most --pool (default 4,10, the protocols')")
   parser.add_argument("--states", type=int, default=None,
                       help="states per skill of the fixed-state reading (default 4 x the scored "
                            "steps, the quick protocol's)")
@@ -206,7 +247,8 @@ def main(argv=None) -> int:
   out = args.out or os.path.join(args.run, name + ".json")
   if args.plot:
     unused = [flag for flag, v in (("--seeds", args.seeds), ("--pool", args.pool),
-                                   ("--sizes", args.sizes), ("--states", args.states),
+                                   ("--sizes", args.sizes), ("--latents", args.latents),
+                                   ("--states", args.states),
                                    ("--draws", args.draws)) if v is not None]
     if unused:
       parser.error(f"{', '.join(unused)}: choose the analysis; --plot draws its JSON (--out, "
@@ -229,7 +271,17 @@ def main(argv=None) -> int:
     parser.error(f"--sizes {args.sizes}: {sizes[-1]} is more than the --pool of {pool} "
                  "episodes per skill")
   run, picked = common.load_picked(parser, args.run, args.seeds)
-  _check_run(run, parser)
+  continuous = _check_run(run, parser)
+  latent_counts = None
+  if continuous:
+    latent_counts = (_positive_ints(parser, args.latents, "--latents") if args.latents is not None
+                     else [m for m in (QUICK, FINAL) if m <= pool])
+    if not latent_counts or latent_counts[0] < 2 or latent_counts[-1] > pool:
+      parser.error(f"--latents {args.latents or 'default'}: each count must be at least 2 (one "
+                   f"latent has no MI to read) and at most the --pool of {pool} latents drawn")
+  elif args.latents is not None:
+    parser.error(f"--latents {args.latents}: {run.spec.objective}'s prior is categorical, whose "
+                 "every skill the evaluator reads; --latents is for a continuous prior")
   length = metrics.scored_steps(run.env)
   states = QUICK * length if args.states is None else args.states
   if states < 1:
@@ -245,7 +297,7 @@ def main(argv=None) -> int:
   def one(p, k):
     roll_key, read_key = jax.random.split(k)
     scored = pooled_episodes(run, p, roll_key, pool, deterministic=args.deterministic)
-    return readings(scored, read_key, sizes, draws, scale, states)
+    return readings(scored, read_key, sizes, draws, scale, states, latent_counts)
 
   values = {k: np.asarray(v).tolist() for k, v in jax.jit(jax.vmap(one))(params, keys).items()}
   result = {"run": os.path.abspath(args.run), "seeds": [run.spec.seeds[p] for p in picked],
@@ -253,12 +305,17 @@ def main(argv=None) -> int:
             "feature": plots.feature_labels(run.env, metrics.eval_indices(run.objective)[:1])[0],
             "deterministic": args.deterministic, "pool": pool, "sizes": sizes,
             "fixed_state_sizes": fixed, "states": states, "scored_steps": length,
-            "draws": draws, "env_steps": run.env_steps, "num_skills": run.objective.spec.prior.dim,
-            "ln_num_skills": math.log(run.objective.spec.prior.dim), "per_seed": values}
+            "draws": draws, "env_steps": run.env_steps, "prior": run.objective.spec.prior.kind,
+            "latent_counts": latent_counts, "per_seed": values}
+  if not continuous:
+    result.update(num_skills=run.objective.spec.prior.dim,
+                  ln_num_skills=math.log(run.objective.spec.prior.dim))
   common.write_json(out, result)
   actions = "mean" if args.deterministic else "sampled"
+  pooled = (f"{pool} latents x {pool} episodes" if continuous
+            else f"{pool} episodes per skill") + " pooled"
   print(f"{run.spec.objective} on {run.spec.env}, seeds {result['seeds']}, {actions} actions, "
-        f"{pool} episodes per skill pooled, {draws} draws")
+        f"{pooled}, {draws} draws")
   print(common.seed_table({k: v for k, v in values.items() if "_std/" not in k},
                           "reading/k (per observed dimension)"))
   print(f"wrote {out}")

@@ -1,6 +1,7 @@
-"""benchmarks/skill_episode_count.py: how the MI a discrete-skill row reads depends on the episodes
-per skill it is read from, on features whose answer is known: episodes that differ in their course
-(a value of their own) and episodes that differ in nothing but the states they hold."""
+"""benchmarks/skill_episode_count.py: how the MI an MI-max row reads depends on the episodes per
+skill (and a continuous prior's latents) it is read from, on features whose answer is known:
+episodes that differ in their course (a value of their own), episodes that differ in nothing but
+the states they hold, and latents that share a value or not."""
 
 import argparse
 from types import SimpleNamespace
@@ -17,9 +18,9 @@ skill_episode_count = load_benchmark("skill_episode_count")
 SCALE = 5.0
 
 
-def _read(scored, k, draws=1, steps=None, seed=0):
+def _read(scored, k, draws=1, steps=None, seed=0, latents=None):
   return skill_episode_count.read_subsets(jnp.asarray(scored), jax.random.PRNGKey(seed), k, draws,
-                                          SCALE, steps)
+                                          SCALE, steps, latents)
 
 
 def test_episodes_with_courses_of_their_own_read_more_mi_the_fewer_are_read():
@@ -104,9 +105,55 @@ def test_bad_options_are_refused_naming_what_is_valid(tmp_path, monkeypatch, cap
     with pytest.raises(SystemExit):
       skill_episode_count.main(argv)
     assert message in capsys.readouterr().err
+  with pytest.raises(SystemExit):   # a categorical prior's every skill is read
+    skill_episode_count.main([str(tmp_path), "--latents", "4"])
+  assert "--latents is for a continuous prior" in capsys.readouterr().err
+  run.objective, run.spec.objective = objectives.cdiayn(obs_indices=(0,)), "cdiayn"
+  for argv, message in (([str(tmp_path), "--latents", "1,4"], "at least 2"),
+                        ([str(tmp_path), "--pool", "5", "--latents", "4,10"], "--pool of 5")):
+    with pytest.raises(SystemExit):
+      skill_episode_count.main(argv)
+    assert message in capsys.readouterr().err
   parser = argparse.ArgumentParser()
-  with pytest.raises(SystemExit):
-    skill_episode_count._check_run(SimpleNamespace(
-        directory="runs/x", spec=SimpleNamespace(objective="cdiayn"),
-        objective=objectives.cdiayn(obs_indices=(0,))), parser)
-  assert "valid: 'categorical'" in capsys.readouterr().err
+  for name, objective in (("fixed_gcrl", objectives.fixed_gcrl(obs_indices=(0,))),
+                          ("gail", objectives.gail(obs_indices=(0,)))):
+    with pytest.raises(SystemExit):
+      skill_episode_count._check_run(SimpleNamespace(
+          directory="runs/x", spec=SimpleNamespace(objective=name), objective=objective), parser)
+    assert "valid: 'categorical', 'uniform'" in capsys.readouterr().err
+  assert skill_episode_count._check_run(SimpleNamespace(
+      directory="runs/x", spec=SimpleNamespace(objective="cdiayn"),
+      objective=objectives.cdiayn(obs_indices=(0,))), parser)
+
+
+def test_a_continuous_priors_readings_draw_m_of_the_pooled_latents():
+  # Three latents, one episode each, every state at one value: latents 0 and 1 share -1, latent 2
+  # sits at +1. Read with all three, H(s) = H(2/3, 1/3) and H(s|z) = 0. Read two at random, the
+  # pair {0, 1} (a third of the draws) reads MI 0 and the others ln 2: 2/3 ln 2 on average.
+  scored = np.array([-1.0, -1.0, 1.0], np.float32)[:, None, None, None] * np.ones(
+      (1, 1, 4, 1), np.float32)
+  three = _read(scored, 1, latents=3)
+  h = -(2 / 3 * np.log(2 / 3) + 1 / 3 * np.log(1 / 3))
+  np.testing.assert_allclose(three["mi"]["mean"], [h], rtol=1e-5)
+  two = _read(scored, 1, draws=3000, latents=2)
+  np.testing.assert_allclose(two["mi"]["mean"], [2 / 3 * np.log(2)], atol=0.03)
+  # The readings key a continuous prior's by the number of latents, m beside k.
+  out = skill_episode_count.readings(jnp.asarray(scored), jax.random.PRNGKey(0), [1], 2, SCALE, 4,
+                                     latent_counts=[2, 3])
+  np.testing.assert_allclose(out["mi/3_latents/1"], three["mi"]["mean"], rtol=1e-5)
+  assert {"mi/2_latents/1", "mi_fixed_states/3_latents/1",
+          "cond_entropy_std/2_latents/1"} <= set(out)
+  assert "mi/1" not in out
+
+
+def test_a_continuous_priors_pool_rolls_each_drawn_latent_out_pool_times():
+  run = SimpleNamespace(env=envs.episode(EchoEnv(), 8),
+                        policy=lambda p, o, z, key=None, deterministic=False: z[:, :1],
+                        objective=objectives.cdiayn(obs_indices=(0,), obs_scale=5.0))
+  scored = jax.jit(lambda k: skill_episode_count.pooled_episodes(run, {}, k, 3,
+                                                                 deterministic=True))(
+      jax.random.PRNGKey(0))
+  assert scored.shape == (3, 3, 4, 1)   # 3 latents drawn, 3 episodes of each, last half of 8
+  # Each latent's episodes echo its own first number, drawn from the prior: three distinct values.
+  np.testing.assert_allclose(scored[..., 0], scored[:, :1, :1, 0] * np.ones((1, 3, 4)))
+  assert len(np.unique(np.round(np.asarray(scored[:, 0, 0, 0]), 5))) == 3
