@@ -65,7 +65,7 @@ from blx import metrics  # noqa: E402
 from blx.experiments import plots, runs  # noqa: E402
 
 BINS = 1000  # the protocol's (metrics.mimax_evaluator)
-QUICK, FINAL = 4, 10  # episodes per skill of the two protocols (blx.metrics.families.ROLLOUTS)
+QUICK, FINAL = 4, 10  # episodes per skill, and latents drawn, of the protocols (ROLLOUTS)
 READINGS = (("mi", "cond_entropy", "entropy"), ("mi_fixed_states", "cond_entropy_fixed_states",
                                                "entropy_fixed_states"))
 
