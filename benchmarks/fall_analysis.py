@@ -319,7 +319,10 @@ def alive_trend(rows: list[dict], since: float = 0.0) -> AliveTrend:
   fit = fit_alive([a for a, _ in pairs], [m for _, m in pairs])
   steps = list(points)
   means = [np.mean([a for a, _ in points[s].values()]) for s in steps]
-  rate = np.polyfit(np.array(steps) / 1e7, means, 1)[0]
+  # The least-squares slope per 1e7 steps, from centred sums: means that do not change give 0
+  # exactly (np.polyfit's solver leaves a rounding residue there that BLAS builds differ on).
+  x, y = np.array(steps) / 1e7, np.array(means)
+  rate = np.dot(x - x.mean(), y - y.mean()) / np.dot(x - x.mean(), x - x.mean())
   noise = ablations.by_step(rows, "policy/entropy")
   ends = [noise.get(steps[0]), noise.get(steps[-1])]
   entropy = (tuple(float(np.mean(list(v.values()))) for v in ends)
