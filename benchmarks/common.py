@@ -176,22 +176,28 @@ def picked_seeds(run, picked: Sequence[int], key_seed: int) -> tuple:
   return jax.tree.map(lambda x: x[at], run.params), keys
 
 
-CONTINUOUS_PRIORS = ("uniform",)  # the kinds of blx.objectives.priors the evaluator draws latents of
+def draws_latents(objective) -> bool:
+  """Whether the evaluator draws an MI-max objective's latents from its prior (a continuous one,
+  as ``metrics.latents_for_evaluation`` does for any kind but "categorical" and "deterministic")
+  rather than reading fixed skills."""
+  spec = objective.spec
+  return isinstance(spec, MimaxSpec) and spec.prior.kind not in ("categorical", "deterministic")
 
 
 def require_discrete_skills(run, parser, why: str, *, continuous: bool = False) -> bool:
   """``parser.error`` unless a loaded run's objective is MI-max with discrete skills (a categorical
-  prior), or with ``continuous`` also a continuous prior (``CONTINUOUS_PRIORS``, whose latents
-  the evaluator draws and reads as skills), naming its prior and the valid ones; ``why`` says what
+  prior), or with ``continuous`` also a continuous prior (``draws_latents``: the evaluator draws
+  its latents and reads each as a skill), naming its prior and the valid ones; ``why`` says what
   the analysis needs them for. Returns whether the prior is continuous."""
   spec = run.objective.spec
   kind = spec.prior.kind if isinstance(spec, MimaxSpec) else None
-  valid = ("categorical",) + (CONTINUOUS_PRIORS if continuous else ())
-  if kind not in valid:
+  drawn = draws_latents(run.objective)
+  if kind != "categorical" and not (continuous and drawn):
+    valid = "'categorical'" + (" or a continuous one such as 'uniform'" if continuous else "")
     parser.error(f"{run.directory}: {run.spec.objective} is not an MI-max objective with "
                  f"{'skills or latents' if continuous else 'discrete skills'} (prior {kind!r}, "
-                 f"valid: {', '.join(repr(v) for v in valid)}); {why}")
-  return kind in CONTINUOUS_PRIORS
+                 f"valid: {valid}); {why}")
+  return drawn
 
 
 POLICY_LATENTS = 8  # the draws of a continuous prior an analysis rolls a policy out under

@@ -100,12 +100,14 @@ def read_subsets(scored: jax.Array, key: jax.Array, k: int, draws: int, scale: f
   labels = jnp.repeat(jnp.arange(m), k * at.shape[0])
 
   def one(draw_key):
-    latent_key, episode_key = jax.random.split(draw_key)
-    which = (jnp.arange(num) if latents is None
-             else jax.random.permutation(latent_key, num)[:m])       # [m]
+    if latents is None:   # every skill; the draw's key picks the episodes, as before --latents
+      read, episode_key = scored, draw_key
+    else:
+      latent_key, episode_key = jax.random.split(draw_key)
+      read = scored[jax.random.permutation(latent_key, num)[:m]]      # [m, P, T, D]
     picks = jax.vmap(lambda s: jax.random.permutation(s, pool)[:k])(
         jax.random.split(episode_key, m))                            # [m, k]
-    chosen = jnp.take_along_axis(scored[which], picks[:, :, None, None], axis=1)[:, :, at]
+    chosen = jnp.take_along_axis(read, picks[:, :, None, None], axis=1)[:, :, at]
     out = metrics.mutual_information(chosen.reshape(-1, dims), labels, bins=BINS,
                                      value_range=(-scale, scale), num_labels=m)
     return out["mi"], out["entropy"], out["conditional_entropy"]

@@ -120,7 +120,7 @@ def test_bad_options_are_refused_naming_what_is_valid(tmp_path, monkeypatch, cap
     with pytest.raises(SystemExit):
       skill_episode_count._check_run(SimpleNamespace(
           directory="runs/x", spec=SimpleNamespace(objective=name), objective=objective), parser)
-    assert "valid: 'categorical', 'uniform'" in capsys.readouterr().err
+    assert "valid: 'categorical' or a continuous one such as 'uniform'" in capsys.readouterr().err
   assert skill_episode_count._check_run(SimpleNamespace(
       directory="runs/x", spec=SimpleNamespace(objective="cdiayn"),
       objective=objectives.cdiayn(obs_indices=(0,))), parser)
