@@ -251,6 +251,16 @@ class AliveFit:
     return (mi - self.intercept) / self.slope if self.slope else float("nan")
 
 
+def least_squares(x, y) -> tuple[float, float]:
+  """The least-squares line ``y = intercept + slope * x`` as ``(slope, intercept)``, from centred
+  sums, so that a ``y`` that does not change gives a slope of 0 exactly (np.polyfit's solver leaves
+  a rounding residue there that BLAS builds differ on). ``x`` must have a spread."""
+  x, y = np.asarray(x, dtype=float), np.asarray(y, dtype=float)
+  dx = x - x.mean()
+  slope = float(np.dot(dx, y - y.mean()) / np.dot(dx, dx))
+  return slope, float(y.mean() - slope * x.mean())
+
+
 def fit_alive(alive, mi) -> AliveFit:
   """``AliveFit`` of the paired values ``alive`` and ``mi``. Raises ValueError where there are
   fewer than two or the alive share has no spread."""
@@ -259,7 +269,7 @@ def fit_alive(alive, mi) -> AliveFit:
     raise ValueError(f"a fit needs two or more (alive share, MI) pairs, got {x.size} and {y.size}")
   if np.ptp(x) == 0:
     raise ValueError(f"the alive share is {x[0]:g} at every point: nothing to fit")
-  slope, intercept = np.polyfit(x, y, 1)
+  slope, intercept = least_squares(x, y)
   r = float(np.corrcoef(x, y)[0, 1]) if np.ptp(y) else float("nan")
   return AliveFit(points=int(x.size), intercept=float(intercept), slope=float(slope), r=r)
 
@@ -319,10 +329,7 @@ def alive_trend(rows: list[dict], since: float = 0.0) -> AliveTrend:
   fit = fit_alive([a for a, _ in pairs], [m for _, m in pairs])
   steps = list(points)
   means = [np.mean([a for a, _ in points[s].values()]) for s in steps]
-  # The least-squares slope per 1e7 steps, from centred sums: means that do not change give 0
-  # exactly (np.polyfit's solver leaves a rounding residue there that BLAS builds differ on).
-  x, y = np.array(steps) / 1e7, np.array(means)
-  rate = np.dot(x - x.mean(), y - y.mean()) / np.dot(x - x.mean(), x - x.mean())
+  rate, _ = least_squares(np.array(steps) / 1e7, means)  # per 10 M env steps
   noise = ablations.by_step(rows, "policy/entropy")
   ends = [noise.get(steps[0]), noise.get(steps[-1])]
   entropy = (tuple(float(np.mean(list(v.values()))) for v in ends)

@@ -308,6 +308,17 @@ def test_a_share_that_does_not_rise_never_reaches_the_paper():
   assert abs(trend.alive_rate) < 1e-12 and trend.steps_for(1.0) == float("inf")
 
 
+def test_one_least_squares_line_serves_both_fits():
+  rng = np.random.default_rng(0)
+  x = rng.uniform(0.0, 1.0, 50)
+  y = 0.3 - 2.0 * x + rng.normal(0.0, 0.1, 50)
+  np.testing.assert_allclose(fall_analysis.least_squares(x, y), np.polyfit(x, y, 1))
+  # y that does not change has no slope at all, whatever x's sums round to
+  assert fall_analysis.least_squares(x, np.full(50, 0.25)) == (0.0, 0.25)
+  fit = fall_analysis.fit_alive(x, y)
+  np.testing.assert_allclose([fit.slope, fit.intercept], np.polyfit(x, y, 1))
+
+
 def test_the_trend_names_what_it_cannot_fit():
   with pytest.raises(ValueError, match="needs 2"):
     fall_analysis.alive_trend(_metrics_rows(_ON_THE_LINE), since=25e6)
