@@ -116,6 +116,9 @@ PAPER = {
 }
 ENVS = tuple(PAPER)
 PAPER_SEEDS = 10
+# The paper's MI-max rows whose evaluator draws latents from a continuous prior rather than reading
+# fixed skills (``common.draws_latents`` of their presets; a test checks the two agree).
+DRAWN_LATENTS = frozenset({"cdiayn", "gcrl"})
 
 
 def welch(values: list[float], mean: float, std: float, n: int = PAPER_SEEDS):
@@ -825,20 +828,40 @@ def draw_progress(path: str, *directories: str) -> list[str]:
       ax.set_ylim(min(lo for lo, _ in limits), max(hi for _, hi in limits))
   axes[0][0].legend(fontsize=7, loc="best")
   if finals:
-    from blx.metrics.families import ROLLOUTS
-    quick, final = ROLLOUTS["quick"], ROLLOUTS["final"]
-    fig.supxlabel(textwrap.fill(
-        f"The curves: the evaluations during training ({quick} episodes of each skill, or "
-        f"{quick} latents drawn from a continuous prior); the black marker: the final "
-        f"evaluation (eval.json, the paper's protocol: {final} of each). On the same policies "
-        f"the curves read a discrete prior's MI higher than the final evaluation (fewer states "
-        f"and courses) and a continuous prior's lower (fewer latents cover less): RESULTS, "
-        f"sessions 98-100.", 200 if columns > 1 else 110), fontsize=8)
+    fig.supxlabel(textwrap.fill(progress_caption(
+        {row for _, _, _, evaluation, row in panels if evaluation}),
+        200 if columns > 1 else 110), fontsize=8)
   fig.suptitle(textwrap.fill("The paper's rows during training: blx's curves against the "
                              "paper's final values", 70 if columns == 1 else 120), fontsize=10)
   fig.savefig(path, dpi=110)
   plt.close(fig)
   return titles
+
+
+def progress_caption(rows) -> str:
+  """``draw_progress``'s caption under finished runs of ``rows`` (``(env, objective)`` pairs): the
+  sizes the curves and the final marker are read at, and, for MI-max rows, which way the curves
+  read MI against the final evaluation on the same policies (RESULTS, sessions 98-100)."""
+  from blx.metrics.families import ROLLOUTS
+  quick, final = ROLLOUTS["quick"], ROLLOUTS["final"]
+  mimax = {objective for env, objective in rows
+           if "eval/mi" in PAPER.get(env, {}).get(objective, {})}
+  dmin = {objective for _, objective in rows} - mimax
+  drawn, skills = mimax & DRAWN_LATENTS, mimax - DRAWN_LATENTS
+  sizes = ([f"{quick} episodes of each skill"] if skills else []) + (
+      [f"{quick} latents drawn from the prior, {quick} episodes each"] if drawn else []) + (
+      [f"{quick} episodes"] if dmin else [])
+  text = (f"The curves: the evaluations during training ({'; '.join(sizes)}); the black marker: "
+          f"the final evaluation (eval.json, the paper's protocol: {final} where the curves have "
+          f"{quick}).")
+  if skills:
+    text += (" Where measured (RESULTS, sessions 98-99) the curves read fixed skills' MI higher "
+             "than the final evaluation of the same policies: fewer states and fewer courses per "
+             "skill.")
+  if drawn:
+    text += (" Where measured (RESULTS, session 100) the curves read a continuous prior's MI "
+             f"lower: {quick} latents cover less than {final}.")
+  return text
 
 
 def paper_steps(env: str) -> int:

@@ -814,3 +814,31 @@ def test_progress_reads_committed_rows_and_draws_each_against_the_paper(tmp_path
   monkeypatch.setattr("sys.argv", ["paper_tables.py", "--plot", str(png)])
   with pytest.raises(SystemExit):
     paper_tables.main()
+
+
+def test_the_rows_said_to_draw_latents_are_those_whose_presets_do():
+  from blx import objectives
+  common = load_benchmark("common")
+  mimax = {objective for rows in paper_tables.PAPER.values()
+           for objective, keys in rows.items() if "eval/mi" in keys}
+  drawn = set()
+  for name in mimax:
+    options = {"obs_indices": (0, 1)} if "obs_indices" in objectives.options_of(name) else {}
+    if common.draws_latents(objectives.make(name, **options)):
+      drawn.add(name)
+  assert drawn == paper_tables.DRAWN_LATENTS and mimax - drawn == {"diayn", "diayn_full"}
+
+
+def test_the_progress_caption_says_only_what_holds_for_the_rows_drawn():
+  skills = paper_tables.progress_caption({("humanoid", "diayn")})
+  drawn = paper_tables.progress_caption({("humanoid", "cdiayn"), ("ant", "gcrl")})
+  dmin = paper_tables.progress_caption({("halfcheetah", "gail")})
+  assert "(4 episodes of each skill)" in skills and "10 where the curves have 4" in skills
+  assert "MI higher" in skills and "MI lower" not in skills
+  assert "(4 latents drawn from the prior, 4 episodes each)" in drawn
+  assert "MI lower" in drawn and "MI higher" not in drawn
+  assert "4 latents cover less than 10" in drawn
+  assert "(4 episodes)" in dmin and "MI" not in dmin
+  every = paper_tables.progress_caption({("ant", "diayn"), ("ant", "cdiayn"), ("ant", "airl")})
+  assert ("(4 episodes of each skill; 4 latents drawn from the prior, 4 episodes each; 4 episodes)"
+          in every and "MI higher" in every and "MI lower" in every)
