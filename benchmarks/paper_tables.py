@@ -828,9 +828,8 @@ def draw_progress(path: str, *directories: str) -> list[str]:
       ax.set_ylim(min(lo for lo, _ in limits), max(hi for _, hi in limits))
   axes[0][0].legend(fontsize=7, loc="best")
   if finals:
-    fig.supxlabel(textwrap.fill(progress_caption(
-        {row for _, _, _, evaluation, row in panels if evaluation}),
-        200 if columns > 1 else 110), fontsize=8)
+    fig.supxlabel(textwrap.fill(progress_caption({row for *_, row in panels}),
+                                200 if columns > 1 else 110), fontsize=8)
   fig.suptitle(textwrap.fill("The paper's rows during training: blx's curves against the "
                              "paper's final values", 70 if columns == 1 else 120), fontsize=10)
   fig.savefig(path, dpi=110)
@@ -839,7 +838,7 @@ def draw_progress(path: str, *directories: str) -> list[str]:
 
 
 def progress_caption(rows) -> str:
-  """``draw_progress``'s caption under finished runs of ``rows`` (``(env, objective)`` pairs): the
+  """``draw_progress``'s caption under the curves of ``rows`` (``(env, objective)`` pairs): the
   sizes the curves and the final marker are read at, and, for MI-max rows, which way the curves
   read MI against the final evaluation on the same policies (RESULTS, sessions 98-100)."""
   from blx.metrics.families import ROLLOUTS
