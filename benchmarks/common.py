@@ -176,22 +176,14 @@ def picked_seeds(run, picked: Sequence[int], key_seed: int) -> tuple:
   return jax.tree.map(lambda x: x[at], run.params), keys
 
 
-def draws_latents(objective) -> bool:
-  """Whether the evaluator draws an MI-max objective's latents from its prior (a continuous one,
-  as ``metrics.latents_for_evaluation`` does for any kind but "categorical" and "deterministic")
-  rather than reading fixed skills."""
-  spec = objective.spec
-  return isinstance(spec, MimaxSpec) and spec.prior.kind not in ("categorical", "deterministic")
-
-
 def require_discrete_skills(run, parser, why: str, *, continuous: bool = False) -> bool:
   """``parser.error`` unless a loaded run's objective is MI-max with discrete skills (a categorical
-  prior), or with ``continuous`` also a continuous prior (``draws_latents``: the evaluator draws
-  its latents and reads each as a skill), naming its prior and the valid ones; ``why`` says what
-  the analysis needs them for. Returns whether the prior is continuous."""
+  prior), or with ``continuous`` also a continuous prior (``metrics.draws_latents``: the evaluator
+  draws its latents and reads each as a skill), naming its prior and the valid ones; ``why`` says
+  what the analysis needs them for. Returns whether the prior is continuous."""
   spec = run.objective.spec
   kind = spec.prior.kind if isinstance(spec, MimaxSpec) else None
-  drawn = draws_latents(run.objective)
+  drawn = metrics.draws_latents(run.objective)
   if kind != "categorical" and not (continuous and drawn):
     valid = "'categorical'" + (" or a continuous one such as 'uniform'" if continuous else "")
     parser.error(f"{run.directory}: {run.spec.objective} is not an MI-max objective with "

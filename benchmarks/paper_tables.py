@@ -117,7 +117,7 @@ PAPER = {
 ENVS = tuple(PAPER)
 PAPER_SEEDS = 10
 # The paper's MI-max rows whose evaluator draws latents from a continuous prior rather than reading
-# fixed skills (``common.draws_latents`` of their presets; a test checks the two agree).
+# fixed skills (``metrics.draws_latents`` of their presets; a test checks the two agree).
 DRAWN_LATENTS = frozenset({"cdiayn", "gcrl"})
 
 

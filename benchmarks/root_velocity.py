@@ -117,7 +117,7 @@ def main():
     parser.error(f"--latents {args.latents}: give 1 or more")
   run, picked = common.load_picked(parser, args.run, args.seeds)
   takes_latent = run.objective.conditions_policy
-  if args.latents is not None and not (takes_latent and common.draws_latents(run.objective)):
+  if args.latents is not None and not (takes_latent and metrics.draws_latents(run.objective)):
     parser.error(f"--latents {args.latents}: {args.run}'s policy "
                  + ("runs every skill of its categorical prior (or its one latent)"
                     if takes_latent else f"takes no latent (objective {run.spec.objective!r})")

@@ -101,16 +101,28 @@ class Evaluator:
     return score(envs_lib.rollout_together([batch])[0])
 
 
+_FIXED_PRIORS = ("categorical", "deterministic")  # prior kinds whose latents are read, not drawn
+
+
+def draws_latents(objective: Objective) -> bool:
+  """Whether ``latents_for_evaluation`` draws an objective's latents from its prior (a continuous
+  one: any kind but "categorical" and "deterministic", e.g. cDIAYN's and GCRL's "uniform") rather
+  than reading fixed ones (every skill, or the single value). False for an objective without a
+  prior (D-min)."""
+  spec = objective.spec
+  return isinstance(spec, MimaxSpec) and spec.prior.kind not in _FIXED_PRIORS
+
+
 def latents_for_evaluation(objective: Objective, key: jax.Array, num_latents: int) -> jax.Array:
-  """All K one-hots (categorical prior), the single value (deterministic) or ``num_latents``
-  samples of the prior (continuous): ``[L, Z]``."""
+  """All K one-hots (categorical prior), the single value (deterministic) or, where
+  ``draws_latents``, ``num_latents`` samples of the prior (continuous): ``[L, Z]``."""
   _check_spec(objective, MimaxSpec, "latents_for_evaluation")
   prior = objective.spec.prior
+  if draws_latents(objective):
+    return jax.vmap(prior.sample)(jax.random.split(key, num_latents))
   if prior.kind == "categorical":
     return jnp.eye(prior.dim)
-  if prior.kind == "deterministic":
-    return prior.sample(key)[None]
-  return jax.vmap(prior.sample)(jax.random.split(key, num_latents))
+  return prior.sample(key)[None]
 
 
 # How the LGR goals are drawn from PRNGKey(0) (``lgr_goals``): "braxlines", the random bits of the

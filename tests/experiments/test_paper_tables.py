@@ -817,14 +817,13 @@ def test_progress_reads_committed_rows_and_draws_each_against_the_paper(tmp_path
 
 
 def test_the_rows_said_to_draw_latents_are_those_whose_presets_do():
-  from blx import objectives
-  common = load_benchmark("common")
+  from blx import metrics, objectives
   mimax = {objective for rows in paper_tables.PAPER.values()
            for objective, keys in rows.items() if "eval/mi" in keys}
   drawn = set()
   for name in mimax:
     options = {"obs_indices": (0, 1)} if "obs_indices" in objectives.options_of(name) else {}
-    if common.draws_latents(objectives.make(name, **options)):
+    if metrics.draws_latents(objectives.make(name, **options)):
       drawn.add(name)
   assert drawn == paper_tables.DRAWN_LATENTS and mimax - drawn == {"diayn", "diayn_full"}
 

@@ -117,6 +117,24 @@ def test_lgr_goals_are_what_braxlines_own_call_drew_on_the_jax_it_ran_on():
   np.testing.assert_allclose(metrics.lgr_goals(obj), theirs, atol=1e-6)
 
 
+def test_draws_latents_says_which_presets_the_evaluator_samples_latents_for():
+  # A prior drawn from gives other latents under another key; fixed skills (every one-hot) and a
+  # fixed goal are the same under any key; an objective without a prior draws nothing.
+  drawn = set()
+  for name in objectives.list_objectives():
+    options = {"obs_indices": (0, 1)} if "obs_indices" in objectives.options_of(name) else {}
+    objective = objectives.make(name, **options)
+    if not isinstance(objective.spec, objectives.MimaxSpec):
+      assert not metrics.draws_latents(objective), name
+      continue
+    first, second = (metrics.latents_for_evaluation(objective, jax.random.PRNGKey(seed), 3)
+                     for seed in (0, 1))
+    assert metrics.draws_latents(objective) == (not np.array_equal(first, second)), name
+    if metrics.draws_latents(objective):
+      drawn.add(name)
+  assert drawn == {"cdiayn", "gcrl"}
+
+
 def test_dmin_helper_matches_a_direct_energy_distance():
   env = point(100)
   obj = objectives.gail(obs_indices="pos_xy", env=env, obs_scale=8.0)  # modes (+-4, 0)
